@@ -1,0 +1,690 @@
+"""Generate the numba source of a scene's kernel: only the terms the scene has.
+
+The kernel implements the minimal-coordinate equations of docs/formulation.md:
+
+    M(q) q'' = Q(q, q', t) - h(q, q', t)        (tree of ideal joints, clearance joints as forces)
+
+with M = sum_b m_b J_b^T J_b + I_b Jt_b^T Jt_b, h = sum_b m_b J_b^T a_b^bias (velocity terms) and Q the
+generalised applied forces (contact, friction, gravity, loads). Jacobians are geometric: for a joint
+angle with world pivot P, d r_X / d q = z x (r_X - P); for a slide, the world guide direction.
+Loops of ideal joints add constraints Phi(q) = 0 solved by Newton for dependent coordinates and the
+augmented system [M Phi_q^T; Phi_q 0] for the accelerations.
+
+Generated functions (all ``@njit(cache=True)``):
+    rhs(t, y, p, z, dy)            state y = [q_I, q_I'] (independent coordinates)
+    events(t, y, p, z, g)          penetration of each clearance joint (m), switches of loads
+    on_event(k, direction, t, y, p, z)   records the approach velocity at contact onset
+    observe(t, y, p, z, row)       every observable column (see columns())
+"""
+from __future__ import annotations
+
+from .scene_model import Scene
+from .topology import GROUND, Topology
+
+NEEDS_VMINUS = {"lankarani_nikravesh", "hunt_crossley", "flores", "gonthier"}
+
+
+def friction_present(joint) -> bool:
+    f = joint.friction
+    return (f.law != "none" and f.mu > 0.0) or f.tangential_damping > 0.0
+
+
+def structure_key(scene: Scene, topo: Topology) -> dict:
+    """Everything that changes the kernel's code (and nothing that is only a number)."""
+    return {
+        "bodies": topo.body_names,
+        "points": {b.name: sorted(b.points) for b in scene.bodies.values()},
+        "ground": sorted(scene.ground_points),
+        "edges": [(e.kind, e.joint, e.parent, e.parent_point, e.child_point, e.coords) for e in topo.edges],
+        "order": topo.order,
+        "coords": [(c.kind, c.body) for c in topo.coords],
+        "cuts": [(n, scene.joints[n].bodies, scene.joints[n].points) for n in topo.cuts],
+        "dependent": topo.dependent,
+        "rheonomic": topo.rheonomic,
+        "clearance": [(n, scene.joints[n].bodies, scene.joints[n].points, scene.joints[n].contact.law,
+                       scene.joints[n].friction.law if friction_present(scene.joints[n]) else "none",
+                       scene.joints[n].friction.tangential_damping > 0) for n in topo.clearance],
+        "gravity": [g != 0.0 for g in scene.gravity],
+        "driver": None if scene.driver is None else (scene.driver.joint, scene.driver.mode),
+        "loads": [(ld.type, ld.body, ld.point, ld.bodies, ld.points, ld.modulation, len(ld.table_angles))
+                  for ld in scene.loads],
+    }
+
+
+class Emitter:
+    def __init__(self, scene: Scene, topo: Topology, layout):
+        self.scene, self.topo, self.L = scene, topo, layout
+        self.lines: list[str] = []
+        self.ind = 1
+
+    # --- helpers -------------------------------------------------------------------
+    def w(self, s: str = ""):
+        self.lines.append("    " * self.ind + s)
+
+    def P(self, name: str, k: int | None = None) -> str:
+        i = self.L.index[name]
+        return f"p[{i + (k or 0)}]"
+
+    def point_param(self, body: int, pname: str) -> tuple[str, str]:
+        base = (f"ground.points.{pname}" if body == GROUND
+                else f"bodies.{self.topo.body_names[body]}.points.{pname}")
+        return self.P(base, 0), self.P(base, 1)
+
+    def world_point(self, body: int, pname: str, tag: str, vel: bool = True, acc: bool = False):
+        """Emit world position (and velocity, bias acceleration) of a body point; returns var prefix."""
+        px, py = self.point_param(body, pname)
+        if body == GROUND:
+            self.w(f"{tag}x = {px}; {tag}y = {py}")
+            if vel:
+                self.w(f"{tag}vx = 0.0; {tag}vy = 0.0")
+            if acc:
+                self.w(f"{tag}ax = 0.0; {tag}ay = 0.0")
+            return
+        b = body
+        self.w(f"{tag}dx = c{b}*{px} - s{b}*{py}; {tag}dy = s{b}*{px} + c{b}*{py}")
+        self.w(f"{tag}x = x{b} + {tag}dx; {tag}y = y{b} + {tag}dy")
+        if vel:
+            self.w(f"{tag}vx = vx{b} - w{b}*{tag}dy; {tag}vy = vy{b} + w{b}*{tag}dx")
+        if acc:
+            self.w(f"{tag}ax = ax{b} - al{b}*{tag}dy - w{b}*w{b}*{tag}dx; "
+                   f"{tag}ay = ay{b} + al{b}*{tag}dx - w{b}*w{b}*{tag}dy")
+
+    def jac(self, k: int, X: str, Y: str) -> tuple[str, str, str]:
+        """Jacobian (dx/dq_k, dy/dq_k, dtheta/dq_k) of a world point (X, Y) of a body moved by q_k."""
+        kind = self.topo.coords[k].kind
+        if kind in ("crank", "rev", "fth"):
+            return f"(-({Y} - py{k}))", f"({X} - px{k})", "1.0"
+        if kind == "pri":
+            return f"ux{k}", f"uy{k}", "0.0"
+        if kind == "fx":
+            return "1.0", "0.0", "0.0"
+        return "0.0", "1.0", "0.0"   # fy
+
+    # --- kinematics ------------------------------------------------------------------
+    def coords_from_state(self, mode: str):
+        """q{k}, qd{k} for every coordinate; dependent ones are solved later (loops)."""
+        t = self.topo
+        n_ind = len(t.independent)
+        for c in t.rheonomic:
+            self.w(f"q{c} = {self.P('driver.angle0')} + {self.P('driver.speed')}*t; qd{c} = {self.P('driver.speed')}")
+        for i, k in enumerate(t.independent):
+            self.w(f"q{k} = y[{i}]; qd{k} = y[{n_ind + i}]")
+
+    def positions(self):
+        t = self.topo
+        for b in t.order:
+            e = t.edges[b]
+            if e.kind == "free":
+                kx, ky, kt = e.coords
+                self.w(f"th{b} = q{kt}; x{b} = q{kx}; y{b} = q{ky}")
+                self.w(f"c{b} = np.cos(th{b}); s{b} = np.sin(th{b})")
+                self.w(f"px{kt} = x{b}; py{kt} = y{b}")
+                continue
+            k = e.coords[0]
+            par = e.parent
+            pth = "0.0" if par == GROUND else f"th{par}"
+            if e.kind in ("crank", "rev"):
+                self.world_point(par, e.parent_point, f"J{k}", vel=False)
+                self.w(f"px{k} = J{k}x; py{k} = J{k}y")
+                self.w(f"th{b} = {pth} + q{k}" if par != GROUND else f"th{b} = q{k}")
+                self.w(f"c{b} = np.cos(th{b}); s{b} = np.sin(th{b})")
+                bx, by = self.point_param(b, e.child_point)
+                self.w(f"d{b}x = c{b}*{bx} - s{b}*{by}; d{b}y = s{b}*{bx} + c{b}*{by}")
+                self.w(f"x{b} = J{k}x - d{b}x; y{b} = J{k}y - d{b}y")
+            else:  # prismatic
+                self.world_point(par, e.parent_point, f"G{k}", vel=False)
+                ax_, ay_ = self.P(f"joints.{e.joint}.axis", 0), self.P(f"joints.{e.joint}.axis", 1)
+                if par == GROUND:
+                    self.w(f"ux{k} = {ax_}; uy{k} = {ay_}")
+                else:
+                    self.w(f"ux{k} = c{par}*{ax_} - s{par}*{ay_}; uy{k} = s{par}*{ax_} + c{par}*{ay_}")
+                self.w(f"Sx{k} = G{k}x + q{k}*ux{k}; Sy{k} = G{k}y + q{k}*uy{k}")
+                self.w(f"th{b} = {pth} + {self.P(f'joints.{e.joint}.angle_offset')}")
+                self.w(f"c{b} = np.cos(th{b}); s{b} = np.sin(th{b})")
+                bx, by = self.point_param(b, e.child_point)
+                self.w(f"d{b}x = c{b}*{bx} - s{b}*{by}; d{b}y = s{b}*{bx} + c{b}*{by}")
+                self.w(f"x{b} = Sx{k} - d{b}x; y{b} = Sy{k} - d{b}y")
+
+    def velocities(self, bias: bool):
+        """Body velocities and, if bias, accelerations with zero independent accelerations."""
+        t = self.topo
+        for b in t.order:
+            e = t.edges[b]
+            if e.kind == "free":
+                kx, ky, kt = e.coords
+                self.w(f"w{b} = qd{kt}; vx{b} = qd{kx}; vy{b} = qd{ky}")
+                if bias:
+                    self.w(f"al{b} = 0.0; ax{b} = 0.0; ay{b} = 0.0")
+                continue
+            k = e.coords[0]
+            par = e.parent
+            if par == GROUND:
+                self.w(f"Jv{k}x = 0.0; Jv{k}y = 0.0")
+                if bias:
+                    self.w(f"Ja{k}x = 0.0; Ja{k}y = 0.0")
+                pw, pal = "0.0", "0.0"
+            else:
+                pw, pal = f"w{par}", f"al{par}"
+                tag = "J" if e.kind in ("crank", "rev") else "G"
+                self.w(f"r{k}x = {tag}{k}x - x{par}; r{k}y = {tag}{k}y - y{par}")
+                if e.kind == "pri":
+                    self.w(f"r{k}x += q{k}*ux{k}; r{k}y += q{k}*uy{k}")
+                self.w(f"Jv{k}x = vx{par} - w{par}*r{k}y; Jv{k}y = vy{par} + w{par}*r{k}x")
+                if bias:
+                    self.w(f"Ja{k}x = ax{par} - al{par}*r{k}y - w{par}*w{par}*r{k}x; "
+                           f"Ja{k}y = ay{par} + al{par}*r{k}x - w{par}*w{par}*r{k}y")
+            if e.kind in ("crank", "rev"):
+                self.w(f"w{b} = {pw} + qd{k}" if par != GROUND else f"w{b} = qd{k}")
+                if bias:
+                    self.w(f"al{b} = {pal}")
+            else:
+                self.w(f"Jv{k}x += qd{k}*ux{k}; Jv{k}y += qd{k}*uy{k}")
+                if bias and par != GROUND:
+                    self.w(f"Ja{k}x += -2.0*w{par}*qd{k}*uy{k}; Ja{k}y += 2.0*w{par}*qd{k}*ux{k}")
+                self.w(f"w{b} = {pw}")
+                if bias:
+                    self.w(f"al{b} = {pal}")
+            self.w(f"vx{b} = Jv{k}x + w{b}*d{b}y; vy{b} = Jv{k}y - w{b}*d{b}x")
+            if bias:
+                self.w(f"ax{b} = Ja{k}x + al{b}*d{b}y + w{b}*w{b}*d{b}x; "
+                       f"ay{b} = Ja{k}y - al{b}*d{b}x + w{b}*w{b}*d{b}y")
+
+    # --- generalised forces --------------------------------------------------------
+    def add_force(self, body: int, X: str, Y: str, FX: str, FY: str, coords: list[int]):
+        """Q_k += F . d r_X / d q_k for every coordinate k in coords moving the body."""
+        if body == GROUND:
+            return
+        anc = set(self.topo.ancestors(body))
+        for k in coords:
+            if k not in anc:
+                continue
+            jx, jy, _ = self.jac(k, X, Y)
+            terms = []
+            if jx != "0.0":
+                terms.append(f"{FX}*{jx}" if jx != "1.0" else FX)
+            if jy != "0.0":
+                terms.append(f"{FY}*{jy}" if jy != "1.0" else FY)
+            if terms:
+                self.w(f"Q{k} += " + " + ".join(terms))
+
+    def add_torque(self, body: int, TQ: str, coords: list[int]):
+        if body == GROUND:
+            return
+        anc = set(self.topo.ancestors(body))
+        for k in coords:
+            if k in anc and self.topo.coords[k].kind in ("crank", "rev", "fth"):
+                self.w(f"Q{k} += {TQ}")
+
+    def modulation(self, i: int, ld) -> str:
+        t = self.topo
+        if ld.modulation == "constant":
+            return "1.0"
+        if ld.modulation == "crank_halves":
+            a = f"q{t.crank_coord}"
+            self.w(f"fa{i} = {a} % (2.0*np.pi)")
+            self.w(f"fm{i} = 1.0 if fa{i} < np.pi else -1.0")
+            return f"fm{i}"
+        if ld.modulation == "angle_threshold":
+            b = t.body_index(ld.body)
+            self.w(f"fm{i} = 1.0 if th{b} <= {self.P(f'loads.{i}.threshold')} else -1.0")
+            return f"fm{i}"
+        n = len(ld.table_angles)
+        ia, iv = self.L.index[f"loads.{i}.table_angles"], self.L.index[f"loads.{i}.table_values"]
+        self.w(f"fm{i} = periodic_table(q{t.crank_coord}, p, {ia}, {iv}, {n})")
+        return f"fm{i}"
+
+    def forces(self, coords: list[int], observe: bool):
+        """Contact, friction, gravity and loads as generalised forces Q{k} for k in coords."""
+        sc, t = self.scene, self.topo
+        for k in coords:
+            self.w(f"Q{k} = 0.0")
+        if observe:
+            self.w("Vpot = 0.0; Pload = 0.0")
+        gx, gy = sc.gravity
+        if gx != 0.0 or gy != 0.0:
+            for b in t.order:
+                m = self.P(f"bodies.{t.body_names[b]}.mass")
+                self.add_force(b, f"x{b}", f"y{b}", f"({m}*{self.P('gravity', 0)})",
+                               f"({m}*{self.P('gravity', 1)})", coords)
+                if observe:
+                    self.w(f"Vpot -= {m}*({self.P('gravity', 0)}*x{b} + {self.P('gravity', 1)}*y{b})")
+        for ci, jn in enumerate(t.clearance):
+            self.clearance_force(ci, jn, coords, observe)
+        for i, ld in enumerate(sc.loads):
+            fm = self.modulation(i, ld)
+            if ld.type == "force":
+                b = t.body_index(ld.body)
+                self.world_point(b, ld.point, f"L{i}", vel=observe)
+                fx, fy = self.P(f"loads.{i}.value", 0), self.P(f"loads.{i}.value", 1)
+                self.w(f"L{i}fx = {fm}*{fx}; L{i}fy = {fm}*{fy}")
+                self.add_force(b, f"L{i}x", f"L{i}y", f"L{i}fx", f"L{i}fy", coords)
+                if observe:
+                    self.w(f"Pload += L{i}fx*L{i}vx + L{i}fy*L{i}vy")
+            elif ld.type == "torque":
+                b = t.body_index(ld.body)
+                self.w(f"L{i}tq = {fm}*{self.P(f'loads.{i}.value')}")
+                self.add_torque(b, f"L{i}tq", coords)
+                if observe and b != GROUND:
+                    self.w(f"Pload += L{i}tq*w{b}")
+            else:  # spring between two points: force on the first point toward the second when stretched
+                b0, b1 = t.body_index(ld.bodies[0]), t.body_index(ld.bodies[1])
+                self.world_point(b0, ld.points[0], f"La{i}")
+                self.world_point(b1, ld.points[1], f"Lb{i}")
+                self.w(f"Ldx{i} = Lb{i}x - La{i}x; Ldy{i} = Lb{i}y - La{i}y")
+                self.w(f"Ll{i} = np.sqrt(Ldx{i}*Ldx{i} + Ldy{i}*Ldy{i})")
+                self.w(f"Lnx{i} = Ldx{i}/Ll{i}; Lny{i} = Ldy{i}/Ll{i}")
+                self.w(f"Lld{i} = (Lb{i}vx - La{i}vx)*Lnx{i} + (Lb{i}vy - La{i}vy)*Lny{i}")
+                k_, l0, c_ = (self.P(f"loads.{i}.stiffness"), self.P(f"loads.{i}.free_length"),
+                              self.P(f"loads.{i}.damping"))
+                self.w(f"Lf{i} = {fm}*({k_}*(Ll{i} - {l0}) + {c_}*Lld{i})")
+                self.w(f"Lfx{i} = Lf{i}*Lnx{i}; Lfy{i} = Lf{i}*Lny{i}")
+                self.add_force(b0, f"La{i}x", f"La{i}y", f"Lfx{i}", f"Lfy{i}", coords)
+                self.add_force(b1, f"Lb{i}x", f"Lb{i}y", f"(-Lfx{i})", f"(-Lfy{i})", coords)
+                if observe:
+                    self.w(f"Vpot += 0.5*{k_}*(Ll{i} - {l0})**2")
+                    self.w(f"Pload -= {c_}*Lld{i}*Lld{i}")
+
+    def clearance_force(self, ci: int, jn: str, coords: list[int], observe: bool):
+        sc, t = self.scene, self.topo
+        j = sc.joints[jn]
+        bj, bb = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
+        pre = f"joints.{jn}."
+        self.world_point(bj, j.points[0], f"A{ci}")
+        self.world_point(bb, j.points[1], f"B{ci}")
+        self.w(f"ex{ci} = A{ci}x - B{ci}x; ey{ci} = A{ci}y - B{ci}y")
+        self.w(f"dex{ci} = A{ci}vx - B{ci}vx; dey{ci} = A{ci}vy - B{ci}vy")
+        self.w(f"ecc{ci} = np.sqrt(ex{ci}*ex{ci} + ey{ci}*ey{ci})")
+        self.w(f"pen{ci} = ecc{ci} - {self.P(pre + 'clearance')}")
+        self.w(f"Fn{ci} = 0.0; Ft{ci} = 0.0; vt{ci} = 0.0; ddot{ci} = 0.0")
+        self.w(f"if ecc{ci} > 0.0:")
+        self.ind += 1
+        self.w(f"nx{ci} = ex{ci}/ecc{ci}; ny{ci} = ey{ci}/ecc{ci}")
+        self.w(f"ddot{ci} = dex{ci}*nx{ci} + dey{ci}*ny{ci}")
+        fr = friction_present(j)
+        if fr or observe:
+            wj = "0.0" if bj == GROUND else f"w{bj}"
+            wb = "0.0" if bb == GROUND else f"w{bb}"
+            rj = self.P(pre + "journal_radius")
+            self.w(f"vt{ci} = slip_velocity(dex{ci}, dey{ci}, nx{ci}, ny{ci}, {wj}, {wb}, {rj}, "
+                   f"{rj} + {self.P(pre + 'clearance')})")
+        self.ind -= 1
+        self.w(f"if pen{ci} > 0.0:")
+        self.ind += 1
+        self.w(f"K = {self.P(pre + 'contact.stiffness')}; nexp = {self.P(pre + 'contact.exponent')}")
+        law = j.contact.law
+        if law in NEEDS_VMINUS:
+            self.w(f"vm = z[{ci}] if z[{ci}] > 0.0 else {self.P(pre + 'contact.min_approach_velocity')}")
+            args = f"K, nexp, {self.P(pre + 'contact.restitution')}, vm"
+        elif law == "hertz_damped":
+            args = f"K, nexp, {self.P(pre + 'contact.damping')}"
+        else:
+            args = "K, nexp"
+        self.w(f"Fn{ci} = {law}(pen{ci}, ddot{ci}, {args})")
+        if fr:
+            f = j.friction
+            if f.law == "coulomb" and f.mu > 0:
+                self.w(f"Ft{ci} = coulomb(vt{ci}, Fn{ci}, {self.P(pre + 'friction.mu')})")
+            elif f.law == "ambrosio" and f.mu > 0:
+                self.w(f"Ft{ci} = ambrosio(vt{ci}, Fn{ci}, {self.P(pre + 'friction.mu')}, "
+                       f"{self.P(pre + 'friction.v0')}, {self.P(pre + 'friction.v1')})")
+            if f.tangential_damping > 0:
+                self.w(f"Ft{ci} += viscous(vt{ci}, {self.P(pre + 'friction.tangential_damping')})")
+            # force on the journal at its contact point, opposite on the bearing at its contact point
+            self.w(f"Fx{ci} = -Fn{ci}*nx{ci} + Ft{ci}*ny{ci}; Fy{ci} = -Fn{ci}*ny{ci} - Ft{ci}*nx{ci}")
+            rj = self.P(pre + "journal_radius")
+            self.w(f"QAx{ci} = A{ci}x + {rj}*nx{ci}; QAy{ci} = A{ci}y + {rj}*ny{ci}")
+            self.w(f"rb{ci} = {rj} + {self.P(pre + 'clearance')}")
+            self.w(f"QBx{ci} = B{ci}x + rb{ci}*nx{ci}; QBy{ci} = B{ci}y + rb{ci}*ny{ci}")
+            self.add_force(bj, f"QAx{ci}", f"QAy{ci}", f"Fx{ci}", f"Fy{ci}", coords)
+            self.add_force(bb, f"QBx{ci}", f"QBy{ci}", f"(-Fx{ci})", f"(-Fy{ci})", coords)
+        else:
+            self.w(f"Fx{ci} = -Fn{ci}*nx{ci}; Fy{ci} = -Fn{ci}*ny{ci}")
+            self.add_force(bj, f"A{ci}x", f"A{ci}y", f"Fx{ci}", f"Fy{ci}", coords)
+            self.add_force(bb, f"B{ci}x", f"B{ci}y", f"(-Fx{ci})", f"(-Fy{ci})", coords)
+        if observe:
+            self.w(f"Vpot += contact_energy(pen{ci}, K, nexp)")
+            # power of the non-conservative part of the contact (damping, friction) on the system
+            self.w(f"Pload += -(Fn{ci} - hertz(pen{ci}, 0.0, K, nexp))*ddot{ci} - Ft{ci}*vt{ci}")
+        self.ind -= 1
+
+    # --- mass matrix and bias ------------------------------------------------------------
+    def mass_matrix(self, coords: list[int], arr: bool):
+        """M{a}_{b} (a <= b) or Mm[ia, ib] and bias-corrected Q{k} -= h_k for the given coordinates."""
+        t = self.topo
+        pos = {k: i for i, k in enumerate(coords)}
+        acc: dict[tuple[int, int], list[str]] = {}
+        for b in t.order:
+            anc = [k for k in t.ancestors(b) if k in pos]
+            if not anc:
+                continue
+            m = self.P(f"bodies.{t.body_names[b]}.mass")
+            I_ = self.P(f"bodies.{t.body_names[b]}.inertia")
+            for k in anc:
+                jx, jy, jt = self.jac(k, f"x{b}", f"y{b}")
+                self.w(f"jx{b}_{k} = {jx}; jy{b}_{k} = {jy}")
+                # bias: Q_k -= m a_bias . J_k + I al_bias Jt_k
+                term = f"{m}*(ax{b}*jx{b}_{k} + ay{b}*jy{b}_{k})"
+                if jt == "1.0":
+                    term += f" + {I_}*al{b}"
+                self.w(f"Q{k} -= {term}")
+            for ia, k in enumerate(anc):
+                for l in anc[ia:]:
+                    a, c = sorted((pos[k], pos[l]))
+                    kk, ll = coords[a], coords[c]
+                    _, _, jtk = self.jac(kk, "", "")
+                    _, _, jtl = self.jac(ll, "", "")
+                    s = f"{m}*(jx{b}_{kk}*jx{b}_{ll} + jy{b}_{kk}*jy{b}_{ll})"
+                    if jtk == "1.0" and jtl == "1.0":
+                        s += f" + {I_}"
+                    acc.setdefault((a, c), []).append(s)
+        if t.crank_coord is not None and t.crank_coord in pos and self.scene.driver.mode == "torque":
+            a = pos[t.crank_coord]
+            acc.setdefault((a, a), []).append(self.P("driver.inertia"))
+        n = len(coords)
+        for a in range(n):
+            for c in range(a, n):
+                expr = " + ".join(acc.get((a, c), ["0.0"]))
+                if arr:
+                    self.w(f"Mm[{a}, {c}] = {expr}")
+                    if c != a:
+                        self.w(f"Mm[{c}, {a}] = Mm[{a}, {c}]")
+                else:
+                    self.w(f"M{a}_{c} = {expr}")
+
+    def ldl_solve(self, n: int, rhs_names: list[str], out_names: list[str]):
+        """Unrolled LDL^T solve of M x = b (M symmetric positive definite, scalars M{a}_{c})."""
+        for j in range(n):
+            s = f"M{j}_{j}" + "".join(f" - L{j}_{k}*L{j}_{k}*D{k}" for k in range(j))
+            self.w(f"D{j} = {s}")
+            for i in range(j + 1, n):
+                s = f"M{j}_{i}" + "".join(f" - L{i}_{k}*L{j}_{k}*D{k}" for k in range(j))
+                self.w(f"L{i}_{j} = ({s})/D{j}")
+        for i in range(n):
+            s = rhs_names[i] + "".join(f" - L{i}_{k}*zz{k}" for k in range(i))
+            self.w(f"zz{i} = {s}")
+        for i in range(n):
+            self.w(f"zz{i} /= D{i}")
+        for i in reversed(range(n)):
+            s = f"zz{i}" + "".join(f" - L{k}_{i}*{out_names[k]}" for k in range(i + 1, n))
+            self.w(f"{out_names[i]} = {s}")
+
+    # --- loops of ideal joints -------------------------------------------------------
+    def cut_terms(self, coords: list[int], bias: bool):
+        """Residual R{r}, Jacobian entries Jc{r}_{k} (k in coords), bias ab{r} of the cut constraints."""
+        t, sc = self.topo, self.scene
+        for c, jn in enumerate(t.cuts):
+            j = sc.joints[jn]
+            bi, bj = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
+            self.world_point(bi, j.points[0], f"Ca{c}", vel=False, acc=bias)
+            self.world_point(bj, j.points[1], f"Cb{c}", vel=False, acc=bias)
+            self.w(f"R{2 * c} = Ca{c}x - Cb{c}x; R{2 * c + 1} = Ca{c}y - Cb{c}y")
+            anc_i, anc_j = set(t.ancestors(bi)) if bi != GROUND else set(), set(t.ancestors(bj)) if bj != GROUND else set()
+            for k in coords:
+                ex, ey = [], []
+                if k in anc_i:
+                    jx, jy, _ = self.jac(k, f"Ca{c}x", f"Ca{c}y")
+                    ex.append(jx); ey.append(jy)
+                if k in anc_j:
+                    jx, jy, _ = self.jac(k, f"Cb{c}x", f"Cb{c}y")
+                    ex.append(f"-{jx}"); ey.append(f"-{jy}")
+                self.w(f"Jc{2 * c}_{k} = {' + '.join(ex) if ex else '0.0'}; "
+                       f"Jc{2 * c + 1}_{k} = {' + '.join(ey) if ey else '0.0'}")
+            if bias:
+                self.w(f"ab{2 * c} = Ca{c}ax - Cb{c}ax; ab{2 * c + 1} = Ca{c}ay - Cb{c}ay")
+
+    def newton_loops(self):
+        """Solve the cut constraints for the dependent coordinates, warm-started from z."""
+        t = self.topo
+        m, D = 2 * len(t.cuts), t.dependent
+        z0 = len(t.clearance)
+        all_k = list(range(len(t.coords)))
+        for i, d in enumerate(D):
+            self.w(f"q{d} = z[{z0 + i}]")
+        self.w(f"Jd = np.empty(({m}, {m})); Rr = np.empty({m})")
+        self.w("nerr = 1.0")
+        self.w("for it in range(60):")
+        self.ind += 1
+        self.positions()
+        self.cut_terms(all_k, bias=False)
+        for r in range(m):
+            self.w(f"Rr[{r}] = R{r}")
+            for i, d in enumerate(D):
+                self.w(f"Jd[{r}, {i}] = Jc{r}_{d}")
+        self.w("dq = np.linalg.solve(Jd, Rr)")
+        self.w("nerr = 0.0")
+        for i, d in enumerate(D):
+            self.w(f"q{d} -= dq[{i}]")
+            self.w(f"nerr = max(nerr, abs(dq[{i}]))")
+        self.w("if nerr < 1e-13:")
+        self.w("    break")
+        self.ind -= 1
+        for i, d in enumerate(D):
+            self.w(f"z[{z0 + i}] = q{d}")
+        self.positions()
+        self.cut_terms(all_k, bias=False)
+        # dependent velocities: Phi_D qd_D = -sum_{k not in D} Phi_k qd_k
+        for r in range(m):
+            self.w(f"Rr[{r}] = -(" + " + ".join([f"Jc{r}_{k}*qd{k}" for k in all_k if k not in D] or ["0.0"]) + ")")
+            for i, d in enumerate(D):
+                self.w(f"Jd[{r}, {i}] = Jc{r}_{d}")
+        self.w("vq = np.linalg.solve(Jd, Rr)")
+        for i, d in enumerate(D):
+            self.w(f"qd{d} = vq[{i}]")
+        self.w("if nerr > 1e-9 or not np.isfinite(nerr):")
+        self.w("    newton_failed = True")
+        self.w("else:")
+        self.w("    newton_failed = False")
+
+
+def _header() -> list[str]:
+    return [
+        "# generated by nld.codegen: do not edit",
+        "import numpy as np",
+        "from numba import njit",
+        "from nld.contact import hertz, hertz_damped, lankarani_nikravesh, hunt_crossley, flores, gonthier, contact_energy",
+        "from nld.friction import coulomb, ambrosio, viscous, slip_velocity",
+        "from nld.kernel_support import periodic_table",
+        "",
+    ]
+
+
+def columns(scene: Scene, topo: Topology) -> list[str]:
+    cols = ["driver.angle", "driver.speed", "driver.torque"]
+    for b in topo.body_names:
+        cols += [f"{b}.{s}" for s in ("x", "y", "theta", "vx", "vy", "omega", "ax", "ay", "alpha")]
+    for jn in topo.clearance:
+        cols += [f"{jn}.{s}" for s in ("ex", "ey", "eccentricity", "penetration", "penetration_rate",
+                                       "Fn", "Ft", "slip", "contact")]
+    cols += ["energy.kinetic", "energy.potential", "energy.total", "power.driver", "power.loads", "newton.ok"]
+    return cols
+
+
+def event_count(scene: Scene, topo: Topology) -> int:
+    return len(topo.clearance) + sum(1 for ld in scene.loads if ld.modulation in ("crank_halves", "angle_threshold"))
+
+
+def generate(scene: Scene, topo: Topology, layout) -> str:
+    """Source text of the kernel module for this scene's structure."""
+    E = Emitter(scene, topo, layout)
+    out = _header()
+    t = topo
+    loops = bool(t.cuts)
+    S = list(t.independent) + list(t.dependent) if loops else list(t.independent)
+    crank = t.crank_coord
+    speed_mode = crank is not None and crank in t.rheonomic
+    S_obs = S + ([crank] if speed_mode else [])
+    n_ind = len(t.independent)
+
+    def body(observe: bool):
+        E.lines = []
+        E.ind = 1
+        E.coords_from_state("obs" if observe else "rhs")
+        if loops:
+            E.newton_loops()
+        else:
+            E.positions()
+        E.velocities(bias=True)
+        coords = S_obs if observe else S
+        E.forces(coords, observe)
+        if t.crank_coord is not None and scene.driver.mode == "torque":
+            E.w(f"Tm = {E.P('driver.torque')} - {E.P('driver.torque_slope')}*(qd{crank} - {E.P('driver.speed')})")
+            E.w(f"Q{crank} += Tm")
+        n = len(S)
+        if not loops:
+            E.mass_matrix(coords, arr=False)
+            if n:
+                E.ldl_solve(n, [f"Q{k}" for k in S], [f"qdd{k}" for k in S])
+        else:
+            m = 2 * len(t.cuts)
+            nn = len(coords)
+            E.w(f"Mm = np.empty(({nn}, {nn}))")
+            E.mass_matrix(coords, arr=True)
+            E.cut_terms(coords, bias=True)
+            E.w(f"A = np.zeros(({n + m}, {n + m})); bb = np.empty({n + m})")
+            E.w(f"A[:{n}, :{n}] = Mm[:{n}, :{n}]")
+            for i, k in enumerate(S):
+                E.w(f"bb[{i}] = Q{k}")
+                for r in range(m):
+                    E.w(f"A[{n + r}, {i}] = Jc{r}_{k}; A[{i}, {n + r}] = Jc{r}_{k}")
+            for r in range(m):
+                E.w(f"bb[{n + r}] = -ab{r}")
+            E.w("sol = np.linalg.solve(A, bb)")
+            for i, k in enumerate(S):
+                E.w(f"qdd{k} = sol[{i}]")
+            for r in range(m):
+                E.w(f"lam{r} = sol[{n + r}]")
+        for k in t.rheonomic:
+            E.w(f"qdd{k} = 0.0")
+        return list(E.lines)
+
+    # rhs
+    out.append("@njit(cache=True, fastmath=False)")
+    out.append("def rhs(t, y, p, z, dy):")
+    out += body(False)
+    for i, k in enumerate(t.independent):
+        out.append(f"    dy[{i}] = qd{k}")
+        out.append(f"    dy[{n_ind + i}] = qdd{k}")
+    if loops:
+        out.append("    if newton_failed:")
+        out.append("        dy[0] = np.nan")
+    out.append("")
+
+    # events: penetration of each clearance joint, load switches
+    E.lines = []
+    E.ind = 1
+    E.coords_from_state("ev")
+    if loops:
+        E.newton_loops()
+    else:
+        E.positions()
+    for ci, jn in enumerate(t.clearance):
+        j = scene.joints[jn]
+        E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=False)
+        E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=False)
+        E.w(f"g[{ci}] = np.sqrt((A{ci}x - B{ci}x)**2 + (A{ci}y - B{ci}y)**2) - "
+            f"{E.P(f'joints.{jn}.clearance')}")
+    ei = len(t.clearance)
+    for i, ld in enumerate(scene.loads):
+        if ld.modulation == "crank_halves":
+            E.w(f"g[{ei}] = np.sin(q{crank})")
+            ei += 1
+        elif ld.modulation == "angle_threshold":
+            E.w(f"g[{ei}] = th{t.body_index(ld.body)} - {E.P(f'loads.{i}.threshold')}")
+            ei += 1
+    out.append("@njit(cache=True)")
+    out.append("def events(t, y, p, z, g):")
+    out += E.lines + ["    return", ""]
+
+    # on_event: record the approach velocity at contact onset
+    E.lines = []
+    E.ind = 1
+    E.coords_from_state("ev")
+    if loops:
+        E.newton_loops()
+    else:
+        E.positions()
+    E.velocities(bias=False)
+    for ci, jn in enumerate(t.clearance):
+        j = scene.joints[jn]
+        E.w(f"if k == {ci}:")
+        E.ind += 1
+        E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}")
+        E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}")
+        E.w(f"ex = A{ci}x - B{ci}x; ey = A{ci}y - B{ci}y")
+        E.w("ecc = np.sqrt(ex*ex + ey*ey)")
+        E.w(f"vn = ((A{ci}vx - B{ci}vx)*ex + (A{ci}vy - B{ci}vy)*ey)/ecc if ecc > 0.0 else 0.0")
+        E.w("if direction > 0:")
+        E.w(f"    z[{ci}] = max(vn, {E.P(f'joints.{jn}.contact.min_approach_velocity')})")
+        E.w("else:")
+        E.w(f"    z[{ci}] = 0.0")
+        E.ind -= 1
+    out.append("@njit(cache=True)")
+    out.append("def on_event(k, direction, t, y, p, z):")
+    out += E.lines + ["    return 0", ""]
+
+    # observe
+    out.append("@njit(cache=True)")
+    out.append("def observe(t, y, p, z, row):")
+    out += body(True)
+    cols = columns(scene, topo)
+    ci_ = {c: i for i, c in enumerate(cols)}
+    E.lines = []
+    E.ind = 1
+    w = E.w
+    # body accelerations a = a_bias + J qdd
+    for b in t.order:
+        anc = t.ancestors(b)
+        ax_terms, ay_terms, al_terms = [f"ax{b}"], [f"ay{b}"], [f"al{b}"]
+        for k in anc:
+            jx, jy, jt = E.jac(k, f"x{b}", f"y{b}")
+            ax_terms.append(f"{jx}*qdd{k}")
+            ay_terms.append(f"{jy}*qdd{k}")
+            if jt == "1.0":
+                al_terms.append(f"qdd{k}")
+        name = t.body_names[b]
+        w(f"row[{ci_[name + '.x']}] = x{b}; row[{ci_[name + '.y']}] = y{b}; row[{ci_[name + '.theta']}] = th{b}")
+        w(f"row[{ci_[name + '.vx']}] = vx{b}; row[{ci_[name + '.vy']}] = vy{b}; row[{ci_[name + '.omega']}] = w{b}")
+        w(f"row[{ci_[name + '.ax']}] = {' + '.join(ax_terms)}")
+        w(f"row[{ci_[name + '.ay']}] = {' + '.join(ay_terms)}")
+        w(f"row[{ci_[name + '.alpha']}] = {' + '.join(al_terms)}")
+    for ci, jn in enumerate(t.clearance):
+        for s, v in (("ex", f"ex{ci}"), ("ey", f"ey{ci}"), ("eccentricity", f"ecc{ci}"),
+                     ("penetration", f"pen{ci}"), ("penetration_rate", f"ddot{ci}"), ("Fn", f"Fn{ci}"),
+                     ("Ft", f"Ft{ci}"), ("slip", f"vt{ci}")):
+            w(f"row[{ci_[f'{jn}.{s}']}] = {v}")
+        w(f"row[{ci_[f'{jn}.contact']}] = 1.0 if pen{ci} > 0.0 else 0.0")
+    # kinetic energy
+    ke = [f"0.5*{E.P(f'bodies.{t.body_names[b]}.mass')}*(vx{b}*vx{b} + vy{b}*vy{b}) + "
+          f"0.5*{E.P(f'bodies.{t.body_names[b]}.inertia')}*w{b}*w{b}" for b in t.order]
+    if crank is not None and scene.driver.mode == "torque":
+        ke.append(f"0.5*{E.P('driver.inertia')}*qd{crank}*qd{crank}")
+    w(f"Tkin = {' + '.join(ke) if ke else '0.0'}")
+    if crank is not None:
+        w(f"row[{ci_['driver.angle']}] = q{crank}; row[{ci_['driver.speed']}] = qd{crank}")
+        if speed_mode:
+            terms = []
+            if not loops:
+                pos = {k: i for i, k in enumerate(S_obs)}
+                c = pos[crank]
+                for k in S:
+                    a, b2 = sorted((pos[k], c))
+                    terms.append(f"M{a}_{b2}*qdd{k}")
+            else:
+                c = len(S)
+                for i, k in enumerate(S):
+                    terms.append(f"Mm[{c}, {i}]*qdd{k}")
+                for r in range(2 * len(t.cuts)):
+                    terms.append(f"Jc{r}_{crank}*lam{r}")
+            w(f"tau = {' + '.join(terms) if terms else '0.0'} - Q{crank}")
+        else:
+            w("tau = Tm")
+        w(f"row[{ci_['driver.torque']}] = tau")
+        w(f"row[{ci_['power.driver']}] = tau*qd{crank}")
+    else:
+        w(f"row[{ci_['driver.angle']}] = np.nan; row[{ci_['driver.speed']}] = np.nan")
+        w(f"row[{ci_['driver.torque']}] = 0.0; row[{ci_['power.driver']}] = 0.0")
+    w(f"row[{ci_['energy.kinetic']}] = Tkin; row[{ci_['energy.potential']}] = Vpot")
+    w(f"row[{ci_['energy.total']}] = Tkin + Vpot; row[{ci_['power.loads']}] = Pload")
+    w(f"row[{ci_['newton.ok']}] = {'0.0 if newton_failed else 1.0' if loops else '1.0'}")
+    out += E.lines + [""]
+    return "\n".join(out) + "\n"

@@ -1,0 +1,95 @@
+"""Compile a scene to its numba kernel: generate, cache on disk, import.
+
+The generated source is written to ``$NLD_CACHE_DIR`` (default ``~/.cache/nld/kernels``) under a name
+that is the hash of the scene's *structure* (codegen.structure_key) and of nld's version, so numba's
+on-disk cache (``cache=True``) is reused across processes and numbers never enter the key.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .codegen import columns, event_count, generate, structure_key
+from .parameters import ParamLayout, build_layout, pack
+from .scene_model import Scene
+from .topology import Topology, build_topology, partition
+
+_LOADED: dict[str, object] = {}
+
+
+def cache_dir() -> Path:
+    d = Path(os.environ.get("NLD_CACHE_DIR", Path.home() / ".cache" / "nld" / "kernels"))
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+@dataclass
+class Kernel:
+    """A compiled scene structure: generated functions plus the layout of its parameters."""
+    scene: Scene
+    topo: Topology
+    layout: ParamLayout
+    module: object
+    key: str
+    columns: list[str]
+    n_events: int
+    source_path: Path
+
+    @property
+    def n_state(self) -> int:
+        return 2 * len(self.topo.independent)
+
+    @property
+    def n_z(self) -> int:
+        return len(self.topo.clearance) + len(self.topo.dependent)
+
+    def params(self, scene: Scene | None = None) -> np.ndarray:
+        """Parameter vector of ``scene`` (default: the scene compiled) for this kernel."""
+        s = scene or self.scene
+        return pack(s, self.layout)
+
+    def state_labels(self) -> list[str]:
+        q = [self.topo.coords[k].label for k in self.topo.independent]
+        return q + [lab + "_dot" for lab in q]
+
+
+def _import(path: Path, name: str):
+    if name in _LOADED:
+        return _LOADED[name]
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    _LOADED[name] = mod
+    return mod
+
+
+def compile_scene(scene: Scene) -> Kernel:
+    """Build (or fetch from cache) the kernel of a validated scene."""
+    topo = build_topology(scene)
+    if topo.cuts:
+        from .assembly import constraint_jacobian_at_assembly
+        partition(topo, constraint_jacobian_at_assembly(scene, topo))
+    else:
+        partition(topo, np.zeros((0, len(topo.coords))))
+    layout = build_layout(scene)
+    key_src = json.dumps({"v": __version__, "s": structure_key(scene, topo), "p": layout.names},
+                         sort_keys=True, default=str)
+    key = hashlib.sha1(key_src.encode()).hexdigest()[:16]
+    name = f"nld_kernel_{scene.name}_{key}"
+    path = cache_dir() / f"{name}.py"
+    if not path.exists():
+        src = generate(scene, topo, layout)
+        tmp = path.with_suffix(f".tmp{os.getpid()}")
+        tmp.write_text(src)
+        os.replace(tmp, path)
+    mod = _import(path, name)
+    return Kernel(scene, topo, layout, mod, key, columns(scene, topo), event_count(scene, topo), path)

@@ -1,0 +1,28 @@
+"""Small numba helpers that generated kernels import."""
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def periodic_table(angle, p, ia, iv, n):
+    """Periodic piecewise-linear factor of the crank angle (rad) from a table in p[ia:ia+n], p[iv:iv+n].
+
+    The table covers [0, 2 pi); between its last and first entry it wraps around.
+    """
+    a = angle % (2.0 * np.pi)
+    if n == 1:
+        return p[iv]
+    if a < p[ia]:
+        a0, v0 = p[ia + n - 1] - 2.0 * np.pi, p[iv + n - 1]
+        a1, v1 = p[ia], p[iv]
+    elif a >= p[ia + n - 1]:
+        a0, v0 = p[ia + n - 1], p[iv + n - 1]
+        a1, v1 = p[ia] + 2.0 * np.pi, p[iv]
+    else:
+        k = 0
+        while p[ia + k + 1] <= a:
+            k += 1
+        a0, v0, a1, v1 = p[ia + k], p[iv + k], p[ia + k + 1], p[iv + k + 1]
+    if a1 == a0:
+        return v0
+    return v0 + (v1 - v0) * (a - a0) / (a1 - a0)
