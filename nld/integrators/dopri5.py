@@ -14,6 +14,13 @@ Everything with ``@njit`` takes the user's functions as arguments (numba dispatc
 
 ``p`` (parameters) is read only; ``z`` (discrete state) is modified only by ``on_event``, in
 place, so the caller sees its final value.
+
+Caching: numba names the type of a jitted-function argument after the function's memory
+address, so a ``dopri5`` specialization compiled by a call *from Python* is never found in the
+disk cache by a later process (each new process recompiles, ~5 s). ``dopri5`` and its helpers
+that take the user's functions are therefore ``inline='always'``: call ``dopri5`` from a
+``@njit(cache=True)`` wrapper in which rhs/events/on_event are module globals, and the wrapper
+(with dopri5 inlined) is loaded from the disk cache.
 """
 
 import math
@@ -197,16 +204,33 @@ def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
 
 
 @njit(cache=True, inline='always')
-def _locate(events, k, t, h, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p, z, tol):
+def _locate(events, k, s, t, h, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p, z, tol):
     """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t_new].
 
-    gl, gr have opposite signs (gr may be 0). Returns the bracket end on the *new* side,
-    i.e. at most ``tol`` after the root."""
+    ``s`` is the tracked sign of g_k (the side it is on), gr = g_k(t_new) is on the other
+    side or 0. Returns the bracket end on the new side, i.e. at most ``tol`` after the root.
+
+    If gl = g_k(t) is not strictly on side s (just after an event at t, g_k(t) is zero up
+    to round-off and may lie on either side), the left end is moved to the first of
+    t + tol*4^j (j = 0, 1, ...) where g_k is on side s; if there is none, the crossing is
+    "now" and t is returned."""
     if gr == 0.0:
         return t_new
     a = t
-    b = t_new
     fa = gl
+    if gl * s <= 0.0:
+        d = tol
+        while True:
+            a = t + d
+            if a >= t_new:
+                return t
+            _interp((a - t) / h, y, r2, r3, r4, r5, yint)
+            events(a, yint, p, z, gtmp)
+            fa = gtmp[k]
+            if fa * s > 0.0:
+                break
+            d *= 4.0
+    b = t_new
     fb = gr
     side = 0
     for _ in range(ROOT_MAXITER):
@@ -342,7 +366,9 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         target = t_eval[i_out] if land else t_end
         if h > hcap:
             h = hcap
-        if t + h >= target:
+        if h < 4.0 * EPS * abs(t):      # never a step that does not move t
+            h = 4.0 * EPS * abs(t)
+        if t + 1.01 * h >= target:      # land on the target, no sliver step (as in DOPRI5)
             t_new = target
         else:
             t_new = t + h
@@ -429,12 +455,8 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         t_star = t_new
         for k in range(ne):
             if crossed[k]:
-                if gcur[k] * sgn[k] <= 0.0:
-                    # already on the new side at t (just after an event): crossing is "now"
-                    troot[k] = t
-                else:
-                    troot[k] = _locate(events, k, t, h, t_new, gcur[k], gnew[k], y, r2, r3,
-                                       r4, r5, yint, gtmp, p, z, tol)
+                troot[k] = _locate(events, k, sgn[k], t, h, t_new, gcur[k], gnew[k], y, r2,
+                                   r3, r4, r5, yint, gtmp, p, z, tol)
                 if troot[k] < t_star:
                     t_star = troot[k]
 

@@ -1,0 +1,366 @@
+"""Command line of nld.
+
+    nld scenes                                   built-in scenes, one per line
+    nld show SCENE [--set KEY=VALUE ...]         resolved parameters with units
+    nld simulate SCENE [--set ...] [--revs N | --t-end T] [--rtol R] [--samples-per-rev N]
+                 [--ideal] [--out FILE.csv|FILE.parquet]
+    nld study NAME [--quick] [--out-dir DIR]     run studies/NAME.py, print the PDF path
+    nld --version
+
+Exit status: 0 success, 1 failed integration or solve (the message on stderr; what was computed
+is still written), 2 bad input (one line ``nld: error: <message>`` on stderr, no traceback).
+``main(argv)`` returns the status instead of exiting, for tests.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import math
+import os
+import re
+import shlex
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .errors import InputError, SceneError, SolveError
+
+PROG = "nld"
+STUDIES_ENV = "NLD_STUDIES_DIR"
+
+
+class _UsageError(Exception):
+    """An argparse error, turned into the one-line message of :func:`main`."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):       # one line instead of usage + message, see main()
+        message = _one_line(message)
+        m = re.match(r"argument (\S+): (\1 = .*)", message)    # our type checks name the option
+        if m:
+            message = m.group(2)
+        cmd = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        hint = f" (see '{PROG}{' ' + cmd if cmd else ''} --help')"
+        raise _UsageError(message + hint)
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+def _err(message) -> None:
+    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
+
+
+# ---------------------------------------------------------------------------------------------------
+# argument parser
+
+
+def _number_arg(name: str, *, positive: bool = True):
+    """argparse type: a finite float (> 0 if ``positive``); the message names the option."""
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not a number") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be a finite number")
+        if positive and not v > 0:
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be > 0")
+        return v
+    conv.__name__ = name
+    return conv
+
+
+def _rtol_arg(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--rtol = {text!r}: not a number") from None
+    if not (math.isfinite(v) and 1e-14 <= v < 1):
+        raise argparse.ArgumentTypeError(f"--rtol = {text}: must be a number in [1e-14, 1)")
+    return v
+
+
+def _samples_arg(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--samples-per-rev = {text!r}: not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"--samples-per-rev = {text}: must be >= 1")
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from .simulate import DEFAULT_RTOL, DEFAULT_SAMPLES_PER_REV
+    p = _Parser(prog=PROG, description="Nonlinear dynamics of planar mechanisms with clearance joints.")
+    p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    sp = sub.add_parser("scenes", help="list the built-in scenes", description="List the built-in scenes.")
+    sp.set_defaults(func=cmd_scenes)
+
+    def scene_args(sp):
+        sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
+        sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
+
+    sp = sub.add_parser("show", help="print the resolved scene parameters with units",
+                        description="Print the resolved scene parameters with units.")
+    scene_args(sp)
+    sp.set_defaults(func=cmd_show)
+
+    sp = sub.add_parser("simulate", help="simulate a scene",
+                        description="Simulate a scene (adaptive Dormand-Prince 5(4)); with --ideal, "
+                                    "evaluate its ideal-joint twin at the same output times instead.")
+    scene_args(sp)
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("--revs", type=_number_arg("--revs"), metavar="N",
+                   help="crank revolutions to simulate (default 1)")
+    g.add_argument("--t-end", type=_number_arg("--t-end"), metavar="T", help="end time (s)")
+    sp.add_argument("--rtol", type=_rtol_arg, default=DEFAULT_RTOL, metavar="R",
+                    help=f"relative tolerance (default {DEFAULT_RTOL:g})")
+    sp.add_argument("--samples-per-rev", type=_samples_arg, default=DEFAULT_SAMPLES_PER_REV, metavar="N",
+                    help=f"output samples per crank revolution (default {DEFAULT_SAMPLES_PER_REV})")
+    sp.add_argument("--ideal", action="store_true",
+                    help="ideal-joint reference solution (nld.ideal) at the same output times")
+    sp.add_argument("--out", metavar="FILE", help="write the table to FILE.csv or FILE.parquet "
+                                                 "(provenance in FILE.json / parquet metadata)")
+    sp.set_defaults(func=cmd_simulate)
+
+    sp = sub.add_parser("study", help="run a study (studies/NAME.py) and print its PDF path",
+                        description="Run studies/NAME.py (or the unique studies/NAME*.py) by calling its "
+                                    f"main(quick, out_dir); the studies directory is ${STUDIES_ENV} "
+                                    "if set, else studies/ in the repository root.")
+    sp.add_argument("name", metavar="NAME", help="study name, or a unique prefix of one")
+    sp.add_argument("--quick", action="store_true", help="short variant (fewer runs, shorter runs)")
+    sp.add_argument("--out-dir", metavar="DIR", type=Path, default=None,
+                    help="output directory (default: reports/ next to the studies directory)")
+    sp.set_defaults(func=cmd_study)
+    return p
+
+
+# ---------------------------------------------------------------------------------------------------
+# commands
+
+
+def cmd_scenes(args) -> int:
+    from .scene import builtin_scenes
+    scenes = builtin_scenes()
+    width = max((len(n) for n in scenes), default=0)
+    for name, desc in scenes.items():
+        print(f"{name:<{width}}  {desc}".rstrip())
+    return 0
+
+
+def cmd_show(args) -> int:
+    from .scene import format_scene, load_scene
+    scene = load_scene(args.scene, args.overrides)
+    print(format_scene(scene))
+    return 0
+
+
+def output_times(scene, *, revs=None, t_end=None, samples_per_rev: int):
+    """Output times (s) of a run, as :func:`nld.simulate.simulate` chooses them by default."""
+    import numpy as np
+    from .simulate import crank_period
+    if t_end is None:
+        t_end = (1.0 if revs is None else revs) * crank_period(scene)
+    try:
+        per = crank_period(scene)
+        n = max(2, int(round(t_end / per * samples_per_rev)) + 1)
+    except InputError:
+        n = 1001
+    return np.linspace(0.0, t_end, n)
+
+
+def cmd_simulate(args) -> int:
+    from .io import check_table_path, save_table
+    from .scene import load_scene
+    out = check_table_path(args.out) if args.out else None       # fail before the (long) run
+    if out is not None:
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise InputError(f"--out {args.out!r}: cannot create its directory ({e.strerror or e})") from None
+    scene = load_scene(args.scene, args.overrides)
+    times = output_times(scene, revs=args.revs, t_end=args.t_end, samples_per_rev=args.samples_per_rev)
+    t_end = float(times[-1])
+    start = time.perf_counter()
+    if args.ideal:
+        from .ideal import ideal_solution
+        from .simulate import provenance
+        table = ideal_solution(scene, times)
+        wall = time.perf_counter() - start
+        status, message, stats, events = 0, "ideal joints: position, velocity, acceleration and " \
+                                            "inverse-dynamics analysis (nld.ideal)", None, None
+        prov = provenance(scene, None, integrator="ideal (nld.ideal.ideal_solution)", t_end=t_end, wall=wall)
+    else:
+        from .simulate import simulate
+        res = simulate(scene, t_eval=times, rtol=args.rtol, samples_per_rev=args.samples_per_rev)
+        wall = time.perf_counter() - start
+        table, status, message, stats, events = res.table, res.status, res.message, res.stats, res.events
+        prov = dict(res.provenance)
+        prov.update(rtol=args.rtol, status=int(status), message=message, t_reached=float(res.t_reached),
+                    stats=dict(stats))
+    prov.update(kind="ideal" if args.ideal else "simulate", samples_per_rev=args.samples_per_rev,
+                revs=args.revs if args.t_end is None else None, command=args.command_line)
+    if out is not None:
+        path = save_table(table, out, prov)
+        print(f"wrote {len(table)} rows x {table.shape[1]} columns to {path} "
+              f"(provenance in {path.name}.json); wall time {wall:.3g} s")
+    else:
+        _print_summary(table, message, stats, events, wall, None if args.ideal else prov.get("wall"))
+    if status < 0:
+        _err(f"integration failed: {message}")
+        return 1
+    return 0
+
+
+def _print_summary(table, message, stats, events, wall, integration_wall) -> None:
+    import numpy as np
+    import pandas as pd
+    print(message)
+    if stats:
+        print("stats: " + ", ".join(f"{k} {v}" for k, v in stats.items()))
+    print(f"rows: {len(table)}" + (f" (t = {table['t'].iloc[0]:.6g} .. {table['t'].iloc[-1]:.6g} s)"
+                                   if len(table) else ""))
+    if len(table):
+        fn_cols = [c for c in table.columns if c.endswith(".Fn")]
+        for c in fn_cols:
+            print(f"max |{c}|: {np.nanmax(np.abs(table[c].to_numpy())):.6g} N")
+        if not fn_cols:     # ideal twin: joint reaction magnitudes
+            for c in table.columns:
+                if c.endswith(".Fx") and c[:-3] + ".Fy" in table.columns:
+                    f = np.hypot(table[c].to_numpy(), table[c[:-3] + ".Fy"].to_numpy())
+                    print(f"max |{c[:-3]}.F|: {np.nanmax(f):.6g} N")
+        if "driver.torque" in table.columns:
+            print(f"max |driver.torque|: {np.nanmax(np.abs(table['driver.torque'].to_numpy())):.6g} N m")
+    if events is not None and len(events):
+        print(f"contact events: {len(events)}")
+    extra = f" (integration {integration_wall:.3g} s)" if integration_wall is not None else ""
+    print(f"wall time: {wall:.3g} s{extra}")
+    if len(table):
+        rows = table.iloc[[0, -1]] if len(table) > 1 else table.iloc[[0]]
+        shown = pd.DataFrame(rows.to_numpy().T, index=table.columns,
+                             columns=["first", "last"][: len(rows)])
+        print(shown.to_string(float_format=lambda v: f"{v:.6g}"))
+
+
+# ----------------------------------------------------------------------------------- studies
+
+
+def studies_dir() -> Path:
+    """``$NLD_STUDIES_DIR`` if set, else ``studies/`` in the repository root (parent of ``nld/``)."""
+    env = os.environ.get(STUDIES_ENV)
+    if env:
+        return Path(env).expanduser()
+    return Path(__file__).resolve().parent.parent / "studies"
+
+
+def available_studies(d: Path | None = None) -> list[str]:
+    d = studies_dir() if d is None else d
+    if not d.is_dir():
+        return []
+    return sorted(p.stem for p in d.glob("*.py") if not p.name.startswith(("_", ".")) and p.is_file())
+
+
+def find_study(name: str, d: Path | None = None) -> Path:
+    """``d/NAME.py``, or the unique ``d/NAME*.py``, or a path to a ``.py`` file; else InputError."""
+    d = studies_dir() if d is None else d
+    given = Path(name).expanduser()
+    if given.suffix == ".py" and given.is_file():
+        return given
+    names = available_studies(d)
+    listing = ", ".join(names) if names else f"(none in {d})"
+    if not name or "/" in name or "\\" in name or name.startswith((".", "_")):
+        raise InputError(f"unknown study {name!r}; available: {listing}")
+    exact = d / f"{name}.py"
+    if exact.is_file():
+        return exact
+    matches = [n for n in names if n.startswith(name)]
+    if len(matches) == 1:
+        return d / f"{matches[0]}.py"
+    if matches:
+        raise InputError(f"ambiguous study name {name!r}: matches {', '.join(matches)}")
+    raise InputError(f"unknown study {name!r}; available: {listing}")
+
+
+def _import_study(path: Path):
+    folder = str(path.resolve().parent)
+    if folder not in sys.path:           # studies may import helper modules next to them
+        sys.path.insert(0, folder)
+    mod_name = f"nld_study_{path.stem}"
+    spec = importlib.util.spec_from_file_location(mod_name, path)
+    if spec is None or spec.loader is None:
+        raise InputError(f"cannot import study {path}")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[mod_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(mod_name, None)
+        raise
+    return module
+
+
+def cmd_study(args) -> int:
+    d = studies_dir()
+    path = find_study(args.name, d)
+    module = _import_study(path)
+    run = getattr(module, "main", None)
+    if not callable(run):
+        raise InputError(f"study {path} has no function main(quick: bool, out_dir: Path) -> Path")
+    out_dir = args.out_dir if args.out_dir is not None else d.resolve().parent / "reports"
+    out_dir = Path(out_dir).expanduser()
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"--out-dir {str(out_dir)!r}: cannot create it ({e.strerror or e})") from None
+    start = time.perf_counter()
+    pdf = run(quick=bool(args.quick), out_dir=out_dir)
+    wall = time.perf_counter() - start
+    print(pdf)
+    print(f"study {path.stem} done in {wall:.3g} s", file=sys.stderr)
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------------
+# entry point
+
+
+def main(argv=None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        try:
+            args = build_parser().parse_args(argv)
+        except SystemExit as e:          # --help, --version
+            return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
+        args.command_line = shlex.join([PROG] + [str(a) for a in argv])
+        return int(args.func(args))
+    except _UsageError as e:
+        _err(e)
+        return 2
+    except (SceneError, InputError) as e:
+        _err(e)
+        return 2
+    except SolveError as e:
+        _err(e)
+        return 1
+    except KeyboardInterrupt:
+        _err("interrupted")
+        return 130
+    except BrokenPipeError:               # e.g. `nld show slider_crank | head`
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,263 @@
+"""Command line (nld.cli) and result tables on disk (nld.io).
+
+Commands run in-process through ``main(argv)`` (capsys); one test runs ``python -m nld`` in a
+subprocess for the real exit status. Simulations are 0.2 crank revolutions of slider_crank.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shlex
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import nld
+from nld.cli import main
+from nld.errors import InputError, SolveError
+from nld.io import load_table, save_table, sidecar_path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run(capsys, *argv):
+    rc = main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def assert_one_line_error(err: str, *needles: str):
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("nld: error: "), err
+    assert "Traceback" not in err
+    for n in needles:
+        assert n in lines[0], (n, err)
+
+
+# --------------------------------------------------------------------------- scenes, show, version
+
+
+def test_scenes_lists_slider_crank(capsys):
+    rc, out, _ = run(capsys, "scenes")
+    assert rc == 0
+    line = next(ln for ln in out.splitlines() if ln.split()[0] == "slider_crank")
+    assert "Flores" in line           # the description follows the name
+
+
+def test_show_prints_resolved_parameters_with_units(capsys):
+    rc, out, _ = run(capsys, "show", "slider_crank")
+    assert rc == 0
+    assert "joints.B.clearance = 0.0005 m" in out.splitlines()
+    rc, out, _ = run(capsys, "show", "slider_crank", "--set", "joints.B.clearance=2e-4",
+                     "--set", "driver.speed=300")
+    assert rc == 0
+    assert "joints.B.clearance = 0.0002 m" in out.splitlines()
+    assert "driver.speed = 300.0 rad/s" in out.splitlines()
+
+
+def test_version(capsys):
+    rc, out, _ = run(capsys, "--version")
+    assert rc == 0
+    assert out.strip() == f"nld {nld.__version__}"
+
+
+# --------------------------------------------------------------------------- simulate
+
+
+def test_simulate_parquet_provenance_round_trip(tmp_path, capsys):
+    out = tmp_path / "x.parquet"
+    rc, stdout, err = run(capsys, "simulate", "slider_crank", "--revs", "0.2", "--out", str(out))
+    assert rc == 0, err
+    assert "73 rows" in stdout
+    df, prov = load_table(out)
+    assert {"t", "B.Fn", "slider.x", "driver.torque"} <= set(df.columns)
+    assert len(df) == 73 and df["t"].iloc[0] == 0.0          # 360 samples per rev -> 72 + 1
+    assert np.all(np.diff(df["t"].to_numpy()) > 0)
+    assert prov["kind"] == "simulate" and prov["status"] >= 0
+    assert prov["rtol"] == 1e-8
+    assert prov["nld_version"] == nld.__version__ and prov["git_hash"]
+    assert prov["command"] == shlex.join(["nld", "simulate", "slider_crank", "--revs", "0.2", "--out", str(out)])
+    assert prov["scene_parameters"]["joints"]["B"]["clearance"] == 5e-4
+    # the schema metadata and the human-readable sidecar carry the same provenance
+    import pyarrow.parquet as pq
+    meta = pq.read_schema(out).metadata
+    assert json.loads(meta[b"nld"]) == prov
+    assert json.loads(sidecar_path(out).read_text()) == prov
+
+
+def test_simulate_override_stored_in_provenance_csv(tmp_path, capsys):
+    out = tmp_path / "sub" / "y.csv"
+    rc, _, err = run(capsys, "simulate", "slider_crank", "--set", "joints.B.clearance=2e-4",
+                     "--revs", "0.2", "--rtol", "1e-7", "--samples-per-rev", "100", "--out", str(out))
+    assert rc == 0, err
+    df, prov = load_table(out)
+    assert prov["scene_parameters"]["joints"]["B"]["clearance"] == 2e-4
+    assert "--set joints.B.clearance=2e-4" in prov["command"]
+    assert prov["rtol"] == 1e-7
+    assert len(df) == 21 and "B.Fn" in df.columns
+
+
+def test_simulate_summary(capsys):
+    rc, out, _ = run(capsys, "simulate", "slider_crank", "--revs", "0.2")
+    assert rc == 0
+    assert "reached t_end" in out
+    assert "rows: 73" in out
+    assert "max |B.Fn|" in out and "max |driver.torque|" in out and "wall time" in out
+    assert "first" in out and "last" in out
+
+
+def test_simulate_ideal_matches_closed_form(tmp_path, capsys):
+    sim, ide = tmp_path / "sim.parquet", tmp_path / "ideal.parquet"
+    assert run(capsys, "simulate", "slider_crank", "--revs", "0.2", "--out", str(sim))[0] == 0
+    rc, _, err = run(capsys, "simulate", "slider_crank", "--revs", "0.2", "--ideal", "--out", str(ide))
+    assert rc == 0, err
+    d_sim, _ = load_table(sim)
+    d_id, prov = load_table(ide)
+    assert prov["kind"] == "ideal"
+    np.testing.assert_array_equal(d_id["t"].to_numpy(), d_sim["t"].to_numpy())
+    # slider position of the ideal slider-crank: r cos(th) + sqrt(l^2 - r^2 sin^2(th))
+    r, l, w = 0.05, 0.12, 523.5987755982989
+    th = w * d_id["t"].to_numpy()
+    x = r * np.cos(th) + np.sqrt(l ** 2 - (r * np.sin(th)) ** 2)
+    np.testing.assert_allclose(d_id["slider.x"].to_numpy(), x, rtol=0, atol=1e-12)
+
+
+def test_simulate_failed_integration_exits_1_and_writes(tmp_path, capsys, monkeypatch):
+    import nld.simulate as sim_mod
+    real = sim_mod.simulate
+
+    def failing(*a, **k):
+        res = real(*a, **k)
+        return dataclasses.replace(res, status=-3, message="step size too small at t = 0.001 s",
+                                   table=res.table.iloc[:10])
+    monkeypatch.setattr(sim_mod, "simulate", failing)
+    out = tmp_path / "f.csv"
+    rc, _, err = run(capsys, "simulate", "slider_crank", "--revs", "0.2", "--out", str(out))
+    assert rc == 1
+    assert_one_line_error(err, "step size too small")
+    df, prov = load_table(out)
+    assert len(df) == 10 and prov["status"] == -3
+
+
+def test_solve_error_exits_1(capsys, monkeypatch):
+    import nld.ideal
+
+    def boom(scene, times):
+        raise SolveError("position analysis failed at t = 0.001 s: singular Jacobian")
+    monkeypatch.setattr(nld.ideal, "ideal_solution", boom)
+    rc, _, err = run(capsys, "simulate", "slider_crank", "--ideal")
+    assert rc == 1
+    assert_one_line_error(err, "singular Jacobian")
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["show", "no_such_scene"], ["no_such_scene"]),
+    (["simulate", "no_such_scene"], ["no_such_scene"]),
+    (["show", "slider_crank", "--set", "joints.B.clearnce=1e-4"], ["joints.B.clearnce"]),
+    (["show", "slider_crank", "--set", "joints.B.clearance=-1e-3"], ["joints.B.clearance", "-0.001"]),
+    (["simulate", "slider_crank", "--set", "joints.B.clearance=nan"], ["joints.B.clearance", "nan"]),
+    (["show", "slider_crank", "--set", "joints.B.clearance"], ["joints.B.clearance"]),
+    (["simulate", "slider_crank", "--revs", "nan"], ["--revs", "nan"]),
+    (["simulate", "slider_crank", "--t-end", "-1"], ["--t-end", "-1"]),
+    (["simulate", "slider_crank", "--rtol", "0"], ["--rtol", "0"]),
+    (["simulate", "slider_crank", "--rtol", "abc"], ["--rtol", "abc"]),
+    (["simulate", "slider_crank", "--samples-per-rev", "0"], ["--samples-per-rev"]),
+    (["simulate", "slider_crank", "--revs", "1", "--t-end", "0.1"], ["--revs", "--t-end"]),
+    (["simulate", "slider_crank", "--out", "x.txt"], ["x.txt", ".csv", ".parquet"]),
+    (["frobnicate"], ["frobnicate"]),
+    ([], ["COMMAND"]),
+])
+def test_bad_input_exits_2_with_one_line(capsys, argv, needles):
+    rc, out, err = run(capsys, *argv)
+    assert rc == 2
+    assert_one_line_error(err, *needles)
+
+
+def test_malformed_toml_exits_2(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[scene]\nname = "x"\ngravity = [0.0, \n')
+    rc, _, err = run(capsys, "show", str(bad))
+    assert rc == 2
+    assert_one_line_error(err, "bad.toml", "malformed TOML")
+
+
+# --------------------------------------------------------------------------- io
+
+
+def test_io_csv_round_trip_and_bad_suffix(tmp_path):
+    df = pd.DataFrame({"t": [0.0, 0.1 + 0.2], "B.Fn": [1e-300, np.pi]})
+    prov = {"scene": "s", "rtol": 1e-8, "stats": {"steps": np.int64(3)}, "x": np.array([1.0, 2.0])}
+    p = save_table(df, tmp_path / "a.csv", prov)
+    back, prov2 = load_table(p)
+    pd.testing.assert_frame_equal(back, df)              # floats round-trip exactly
+    assert prov2 == {"scene": "s", "rtol": 1e-8, "stats": {"steps": 3}, "x": [1.0, 2.0]}
+    for bad in ("a.txt", "a", "a.parquet.gz"):
+        with pytest.raises(InputError, match=r"\.csv, \.parquet"):
+            save_table(df, tmp_path / bad, prov)
+    with pytest.raises(InputError, match="not found"):
+        load_table(tmp_path / "missing.parquet")
+
+
+# --------------------------------------------------------------------------- study
+
+
+@pytest.fixture
+def studies(tmp_path, monkeypatch):
+    d = tmp_path / "studies"
+    d.mkdir()
+    (d / "zhang2013_excavator.py").write_text(textwrap.dedent("""
+        from pathlib import Path
+
+        def main(quick: bool, out_dir: Path) -> Path:
+            pdf = Path(out_dir) / ("zhang_quick.pdf" if quick else "zhang.pdf")
+            pdf.write_bytes(b"%PDF-1.4 dummy")
+            return pdf
+    """))
+    (d / "flores_a.py").write_text("def main(quick, out_dir):\n    return out_dir / 'a.pdf'\n")
+    (d / "flores_b.py").write_text("def main(quick, out_dir):\n    return out_dir / 'b.pdf'\n")
+    (d / "_helpers.py").write_text("")
+    monkeypatch.setenv("NLD_STUDIES_DIR", str(d))
+    return d
+
+
+def test_study_runs_dummy_by_alias(studies, tmp_path, capsys):
+    out_dir = tmp_path / "reports"
+    rc, out, err = run(capsys, "study", "zhang2013", "--quick", "--out-dir", str(out_dir))
+    assert rc == 0, err
+    pdf = Path(out.strip())
+    assert pdf == out_dir / "zhang_quick.pdf" and pdf.read_bytes().startswith(b"%PDF")
+    rc, out, _ = run(capsys, "study", "zhang2013_excavator", "--out-dir", str(out_dir))
+    assert rc == 0 and Path(out.strip()).name == "zhang.pdf"
+
+
+def test_study_unknown_or_ambiguous_exits_2(studies, capsys):
+    rc, _, err = run(capsys, "study", "nope")
+    assert rc == 2
+    assert_one_line_error(err, "nope", "flores_a", "zhang2013_excavator")
+    assert "_helpers" not in err
+    rc, _, err = run(capsys, "study", "flores")
+    assert rc == 2
+    assert_one_line_error(err, "ambiguous", "flores_a", "flores_b")
+
+
+# --------------------------------------------------------------------------- the real entry point
+
+
+def test_python_m_nld_exit_status():
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    p = subprocess.run([sys.executable, "-m", "nld", "scenes"], cwd=ROOT, env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert any(ln.split()[0] == "slider_crank" for ln in p.stdout.splitlines() if ln.strip())
+    p = subprocess.run([sys.executable, "-m", "nld", "show", "slider_crank", "--set",
+                        "joints.B.clearance=-1e-3"], cwd=ROOT, env=env, capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 2
+    assert p.stderr.strip() == "nld: error: joints.B.clearance = -0.001: must be >= 0 (m)"
