@@ -484,6 +484,7 @@ def _header() -> list[str]:
         "from nld.contact import hertz, hertz_damped, lankarani_nikravesh, hunt_crossley, flores, gonthier, contact_energy",
         "from nld.friction import coulomb, ambrosio, viscous, slip_velocity",
         "from nld.kernel_support import periodic_table",
+        "from nld.integrators.dopri5 import dopri5",
         "",
     ]
 
@@ -687,4 +688,19 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
     w(f"row[{ci_['energy.total']}] = Tkin + Vpot; row[{ci_['power.loads']}] = Pload")
     w(f"row[{ci_['newton.ok']}] = {'0.0 if newton_failed else 1.0' if loops else '1.0'}")
     out += E.lines + [""]
+    out += [
+        "@njit(cache=True)",
+        "def observe_all(ts, Y, Z, n, p, rows):",
+        "    for i in range(n):",
+        "        zz = Z[i].copy()",
+        "        observe(ts[i], Y[i], p, zz, rows[i])",
+        "",
+        "@njit(cache=True)",
+        "def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):",
+        "    # a module-level wrapper so that numba's disk cache holds the integrator specialised",
+        "    # for this kernel (a dispatcher passed from Python is never found in the cache)",
+        "    return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
+        "                  max_steps, n_events, max_log)",
+        "",
+    ]
     return "\n".join(out) + "\n"

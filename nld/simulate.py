@@ -110,7 +110,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     ``samples_per_rev`` per crank revolution. land: land exactly on the output times (stroboscopic
     sampling). hmax (s): step cap, default a twentieth of a crank period.
     """
-    from .integrators.dopri5 import dopri5, status_message
+    from .integrators.dopri5 import status_message
     from .scene import load_scene
     if isinstance(scene, str):
         scene = load_scene(scene, overrides)
@@ -172,20 +172,14 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
                 hmax = (t_end - t0) / 20.0
         n_ev = kern.n_events
         max_log = 200_000
-        out = dopri5(kern.module.rhs, kern.module.events, kern.module.on_event, float(t0),
-                     np.ascontiguousarray(y0, dtype=float), t_eval, bool(land), p, z, float(rtol), atol,
-                     0.0, float(hmax), int(max_steps), int(n_ev), max_log)
-        status, t_reached, Y, n_out, st, ev_t, ev_k, ev_dir, n_logged = out[:9]
-        Z = out[9] if len(out) > 9 else None
+        out = kern.module.solve(float(t0), np.ascontiguousarray(y0, dtype=float), t_eval, bool(land), p, z,
+                                float(rtol), atol, 0.0, float(hmax), int(max_steps), int(n_ev), max_log)
+        status, t_reached, Y, n_out, st, ev_t, ev_k, ev_dir, n_logged, Z = out
         stats = dict(steps=int(st[0]), accepted=int(st[1]), rejected=int(st[2]), rhs=int(st[3]),
                      events=int(st[4]))
         message = status_message(status, t_reached, st)
         rows = np.empty((n_out, ncols))
-        zz = z.copy()
-        for i in range(n_out):
-            if Z is not None:
-                zz[:] = Z[i]
-            kern.module.observe(t_eval[i], Y[i], p, zz, rows[i])
+        kern.module.observe_all(t_eval, Y, Z, n_out, p, rows)
         nl = min(int(n_logged), max_log)
         names = kern.topo.clearance + [f"load{i}" for i, ld in enumerate(scene.loads)
                                        if ld.modulation in ("crank_halves", "angle_threshold")]

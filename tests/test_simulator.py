@@ -91,7 +91,7 @@ def test_contact_force_acts_along_normal_and_penetration_consistent():
     assert np.allclose(tb["B.penetration"], tb["B.eccentricity"] - 0.5e-3, atol=1e-15)
     assert ((tb["B.Fn"] > 0) == (tb["B.penetration"] > 0)).all()
     # penetrations stay micrometric for a 6.6e10 N/m^1.5 steel joint
-    assert tb["B.penetration"].max() < 50e-6
+    assert tb["B.penetration"].max() < 100e-6
 
 
 def test_failure_is_reported_not_garbage():

@@ -264,7 +264,9 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
            max_steps, n_events, max_log):
     """Adaptive DOPRI5 from t0 to t_eval[-1].
 
-    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev)
+    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
+
+    Z[i] is the discrete state z in force at output row i (for observing hysteresis laws).
 
     status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
     underflow, -3 non-finite values. Y has one row per t_eval (NaN where not reached);
@@ -283,6 +285,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         raise ValueError("atol must have one entry per state")
 
     Y = np.full((n_eval, n), np.nan)
+    Zo = np.zeros((n_eval, z.shape[0]))     # discrete state in force at each output row
     stats = np.zeros(5, dtype=np.int64)
     ev_t = np.zeros(max_log, dtype=np.float64)
     ev_k = np.zeros(max_log, dtype=np.int64)
@@ -319,9 +322,10 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     while i_out < n_eval and t_eval[i_out] <= t0:
         for j in range(n):
             Y[i_out, j] = y0[j]
+        Zo[i_out, :] = z
         i_out += 1
     if i_out >= n_eval:
-        return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev
+        return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
     t_end = t_eval[n_eval - 1]
 
     n_steps = 0
@@ -434,6 +438,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                         _dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5)
                         dense_done = True
                     _interp_row((te - t) / h, y, r2, r3, r4, r5, Y, i_out)
+                Zo[i_out, :] = z
                 i_out += 1
             t = t_new
             y, ynew = ynew, y
@@ -489,6 +494,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                         Y[i_out, j] = ynew[j]
                 else:
                     _interp_row((te - t) / h_d, y, r2, r3, r4, r5, Y, i_out)
+                Zo[i_out, :] = z
                 i_out += 1
             t = t_star
             y, ynew = ynew, y
@@ -526,7 +532,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     stats[2] = n_rej
     stats[3] = nfev
     stats[4] = n_ev
-    return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev
+    return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
 
 
 @njit(cache=True)
