@@ -1,0 +1,353 @@
+"""Dynamical systems for the chaos analyses: defined once, analysed by any method.
+
+In the style of DynamicalSystems.jl, a system is an object that carries everything an analysis
+needs (equations, parameters, initial state, per-state scales, forcing period), and every analysis
+(``nld.lyapunov`` ...) takes any system:
+
+* :class:`ContinuousSystem` -- an ODE ``y' = f(t, y)`` given as a numba-compiled
+  ``rhs(t, y, p, z, dy)`` (writes dy in place; ``z`` is a discrete state, an empty array for a
+  plain ODE), optionally with event functions (``events(t, y, p, z, g)``,
+  ``on_event(k, direction, t, y, p, z) -> int``) that may change ``z``.
+* :class:`DiscreteMap` -- a map ``x_{n+1} = f(x_n)`` given as a numba-compiled ``f(x, p, out)``,
+  optionally with its Jacobian ``jac(x, p, J)``.
+* :func:`SceneSystem` -- a mechanism scene compiled to its kernel (``nld.kernel``): the scene's
+  rhs/events/on_event, the assembled initial state, the clearance-based state scales of
+  ``nld.simulate.state_scales`` and the crank period.
+* built-ins: :func:`lorenz`, :func:`duffing`, :func:`logistic`, :func:`henon`, :func:`linear`.
+
+:func:`advance` integrates a continuous system over one interval with the adaptive DOPRI5 of
+``nld.integrators.dopri5`` (relative tolerance ``rtol``, absolute tolerance ``rtol * scales``
+per state, events located so contact onsets of a scene are handled). :func:`iterate` applies a map.
+
+Compilation: numba's disk cache only finds an integrator specialisation compiled inside a
+``@njit(cache=True)`` function whose rhs is a module global (see ``nld/integrators/dopri5.py``).
+The built-in flows and every scene (``Kernel.module.solve``) have such a wrapper and load from the
+cache; a user :class:`ContinuousSystem` without ``solve=`` compiles DOPRI5 for its rhs once per
+process (a few seconds).
+
+Units: the time of a flow is in seconds (``time_unit``), so exponents are in 1/s; for a scene the
+state is [independent coordinates (m or rad), their rates (m/s or rad/s)]. A map's "time" is the
+iteration count.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .errors import InputError, SolveError
+from .integrators.dopri5 import dopri5, no_events, no_on_event, status_message
+
+__all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate",
+           "lorenz", "duffing", "logistic", "henon", "linear"]
+
+DEFAULT_MAX_STEPS = 50_000_000
+
+
+def _as_vector(x, what: str) -> np.ndarray:
+    a = np.array(x, dtype=float).ravel()
+    if a.size == 0:
+        raise InputError(f"{what} is empty: a system needs at least one state")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{what} = {a!r}: must be finite")
+    return a
+
+
+def _scales(scales, n: int) -> np.ndarray:
+    if scales is None:
+        return np.ones(n)
+    s = np.array(scales, dtype=float).ravel()
+    if s.shape != (n,) or not np.all(np.isfinite(s)) or not np.all(s > 0):
+        raise InputError(f"scales = {scales!r}: must be {n} positive finite numbers (one per state)")
+    return s
+
+
+class ContinuousSystem:
+    """An ODE y' = rhs(t, y) (a flow), optionally with events and a discrete state.
+
+    rhs:    numba function ``rhs(t, y, p, z, dy)`` writing dy/dt into ``dy``.
+    y0:     initial state (n values).
+    p:      parameter vector (read only), default empty.
+    name:   label used in results.
+    state_names: names of the n states (default y0, y1, ...).
+    scales: per-state absolute scales (default 1): the absolute tolerance of state i is
+            ``rtol * scales[i]`` and separations are measured as ||dy_i / scales[i]||.
+    period: forcing period (s) of a forced system (crank period of a scene), or None.
+    z0:     initial discrete state (default empty); events/on_event/n_events: as for
+            ``nld.integrators.dopri5`` (default none).
+    solve:  optional ``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
+            n_events, max_log)``, a ``@njit(cache=True)`` wrapper of dopri5 with this system's
+            functions (as ``Kernel.module.solve``), so the integrator loads from numba's cache.
+    hmax:   step cap (s); default period/20 for a forced system, else none.
+    time_unit: unit of t (default "s"): exponents are reported per time_unit.
+    """
+
+    is_map = False
+
+    def __init__(self, rhs, y0, p=(), name: str = "system", state_names=None, scales=None,
+                 period: float | None = None, *, z0=None, events=None, on_event=None,
+                 n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s"):
+        self.rhs = rhs
+        self.y0 = _as_vector(y0, "y0")
+        self.n = self.y0.size
+        self.p = np.ascontiguousarray(np.array(p, dtype=float).ravel())
+        self.z0 = np.zeros(0) if z0 is None else np.array(z0, dtype=float).ravel()
+        self.name = str(name)
+        self.state_names = ([f"y{i}" for i in range(self.n)] if state_names is None
+                            else [str(s) for s in state_names])
+        if len(self.state_names) != self.n:
+            raise InputError(f"state_names = {state_names!r}: need {self.n} names")
+        self.scales = _scales(scales, self.n)
+        if period is not None and not (math.isfinite(period) and period > 0):
+            raise InputError(f"period = {period!r}: must be a positive time or None")
+        self.period = None if period is None else float(period)
+        self.events = no_events if events is None else events
+        self.on_event = no_on_event if on_event is None else on_event
+        self.n_events = int(n_events)
+        if self.n_events and events is None:
+            raise InputError(f"n_events = {n_events}: give the events function too")
+        self._solve = solve
+        if hmax is None:
+            hmax = self.period / 20.0 if self.period is not None else 0.0
+        self.hmax = float(hmax)
+        self.time_unit = time_unit
+
+    def solve(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
+              max_log):
+        """DOPRI5 with this system's functions (see ``nld.integrators.dopri5.dopri5``)."""
+        if self._solve is not None:
+            return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
+                               n_events, max_log)
+        return dopri5(self.rhs, self.events, self.on_event, t0, y0, t_eval, land, p, z, rtol,
+                      atol, h0, hmax, max_steps, n_events, max_log)
+
+    def __repr__(self):
+        per = "" if self.period is None else f", period={self.period:.6g} {self.time_unit}"
+        return f"ContinuousSystem({self.name!r}, n={self.n}{per})"
+
+
+class DiscreteMap:
+    """A map x_{n+1} = f(x_n).
+
+    f:   numba function ``f(x, p, out)`` writing the image of x into ``out``.
+    x0:  initial state; p: parameters; name: label.
+    jacobian: optional numba ``jac(x, p, J)`` writing the n x n Jacobian into J (default: central
+         finite differences with steps 1e-6 * scales).
+    scales: per-state scales of the separation norm (default 1).
+    """
+
+    is_map = True
+    period = None
+    time_unit = "iteration"
+
+    def __init__(self, f, x0, p=(), name: str = "map", jacobian=None, state_names=None,
+                 scales=None):
+        self.f = f
+        self.y0 = _as_vector(x0, "x0")
+        self.n = self.y0.size
+        self.p = np.ascontiguousarray(np.array(p, dtype=float).ravel())
+        self.name = str(name)
+        self.jacobian = jacobian
+        self.state_names = ([f"x{i}" for i in range(self.n)] if state_names is None
+                            else [str(s) for s in state_names])
+        self.scales = _scales(scales, self.n)
+        self.z0 = np.zeros(0)
+
+    @property
+    def x0(self):
+        return self.y0
+
+    def __repr__(self):
+        return f"DiscreteMap({self.name!r}, n={self.n})"
+
+
+# ---------------------------------------------------------------- integration of one interval
+def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 1e-10, *,
+            atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
+    """Integrate ``system`` from (t0, y, z) to t1 with DOPRI5; returns (y(t1), z(t1)).
+
+    rtol: relative tolerance; atol: absolute tolerance per state (default ``rtol * scales``).
+    Events (contact onsets of a scene) are located and handled by ``on_event``, which updates
+    the discrete state; the inputs are not modified (z is copied). hmax: step cap (default the
+    system's). A failed integration raises :class:`nld.errors.SolveError`.
+    """
+    if system.is_map:
+        raise InputError(f"{system.name} is a map: use iterate(), not advance()")
+    y = np.ascontiguousarray(y, dtype=float)
+    z = np.array(z, dtype=float)
+    if atol is None:
+        atol = rtol * system.scales
+    atol = np.ascontiguousarray(atol, dtype=float)
+    t_eval = np.array([float(t1)])
+    out = system.solve(float(t0), y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
+                       float(system.hmax if hmax is None else hmax), int(max_steps),
+                       int(system.n_events), 1)
+    status, t_reached, Y, n_out = out[0], out[1], out[2], out[3]
+    if status != 0 or n_out < 1:
+        raise SolveError(f"{system.name}: " + status_message(status, t_reached, out[4]))
+    return Y[0].copy(), z
+
+
+@njit
+def _iterate(f, x, p, n):
+    y = x.copy()
+    tmp = np.empty_like(y)
+    for _ in range(n):
+        f(y, p, tmp)
+        y, tmp = tmp, y
+    return y
+
+
+def iterate(system: DiscreteMap, x, n: int) -> np.ndarray:
+    """x after n iterations of the map."""
+    return _iterate(system.f, np.ascontiguousarray(x, dtype=float), system.p, int(n))
+
+
+# ---------------------------------------------------------------- built-in flows
+@njit(cache=True)
+def lorenz_rhs(t, y, p, z, dy):
+    """Lorenz (1963): x' = s(y - x), y' = x(r - z) - y, z' = x y - b z; p = [s, r, b]."""
+    dy[0] = p[0] * (y[1] - y[0])
+    dy[1] = y[0] * (p[1] - y[2]) - y[1]
+    dy[2] = y[0] * y[1] - p[2] * y[2]
+
+
+@njit(cache=True)
+def duffing_rhs(t, y, p, z, dy):
+    """Forced Duffing x'' + d x' + a x + b x^3 = g cos(w t); p = [d, a, b, g, w]."""
+    dy[0] = y[1]
+    dy[1] = -p[0] * y[1] - p[1] * y[0] - p[2] * y[0] ** 3 + p[3] * math.cos(p[4] * t)
+
+
+@njit(cache=True)
+def linear_rhs(t, y, p, z, dy):
+    """x' = a x (componentwise); p = [a]."""
+    for i in range(y.shape[0]):
+        dy[i] = p[0] * y[i]
+
+
+@njit(cache=True)
+def _solve_lorenz(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+    return dopri5(lorenz_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                  hmax, max_steps, n_events, max_log)
+
+
+@njit(cache=True)
+def _solve_duffing(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
+                   max_log):
+    return dopri5(duffing_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                  hmax, max_steps, n_events, max_log)
+
+
+@njit(cache=True)
+def _solve_linear(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+    return dopri5(linear_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                  hmax, max_steps, n_events, max_log)
+
+
+def lorenz(sigma: float = 10.0, rho: float = 28.0, beta: float = 8.0 / 3.0,
+           y0=(1.0, 1.0, 1.0)) -> ContinuousSystem:
+    """Lorenz system; at the classical (10, 28, 8/3) the spectrum is 0.906, 0, -14.572 (1/time)."""
+    return ContinuousSystem(lorenz_rhs, y0, [sigma, rho, beta], "lorenz", ["x", "y", "z"],
+                            solve=_solve_lorenz)
+
+
+def duffing(delta: float = 0.3, alpha: float = -1.0, beta: float = 1.0, gamma: float = 0.5,
+            omega: float = 1.2, y0=(1.0, 0.0)) -> ContinuousSystem:
+    """Forced Duffing oscillator x'' + delta x' + alpha x + beta x^3 = gamma cos(omega t).
+
+    State [x, x']; period 2 pi / omega. Time is not a state, so there is no zero exponent and
+    the two exponents sum to -delta exactly. The defaults (Guckenheimer & Holmes' double well)
+    are chaotic.
+    """
+    return ContinuousSystem(duffing_rhs, y0, [delta, alpha, beta, gamma, omega], "duffing",
+                            ["x", "x_dot"], period=2.0 * math.pi / omega, solve=_solve_duffing)
+
+
+def linear(a: float = -0.5, y0=(1.0,)) -> ContinuousSystem:
+    """x' = a x (every state); every Lyapunov exponent is a."""
+    y0 = np.atleast_1d(np.array(y0, dtype=float))
+    return ContinuousSystem(linear_rhs, y0, [a], f"linear(a={a:g})", solve=_solve_linear)
+
+
+# ---------------------------------------------------------------- built-in maps
+@njit(cache=True)
+def logistic_f(x, p, out):
+    """x -> r x (1 - x); p = [r]."""
+    out[0] = p[0] * x[0] * (1.0 - x[0])
+
+
+@njit(cache=True)
+def logistic_jac(x, p, J):
+    J[0, 0] = p[0] * (1.0 - 2.0 * x[0])
+
+
+@njit(cache=True)
+def henon_f(x, p, out):
+    """(x, y) -> (1 - a x^2 + y, b x); p = [a, b]."""
+    x0 = x[0]
+    out[0] = 1.0 - p[0] * x0 * x0 + x[1]
+    out[1] = p[1] * x0
+
+
+@njit(cache=True)
+def henon_jac(x, p, J):
+    J[0, 0] = -2.0 * p[0] * x[0]
+    J[0, 1] = 1.0
+    J[1, 0] = p[1]
+    J[1, 1] = 0.0
+
+
+def logistic(r: float = 4.0, x0: float = 0.4) -> DiscreteMap:
+    """Logistic map x -> r x (1 - x); at r = 4 the exponent is ln 2 per iteration."""
+    return DiscreteMap(logistic_f, [x0], [r], f"logistic(r={r:g})", jacobian=logistic_jac,
+                       state_names=["x"])
+
+
+def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
+    """Henon map; at (1.4, 0.3): 0.419, -1.623 per iteration, sum ln b."""
+    return DiscreteMap(henon_f, x0, [a, b], f"henon(a={a:g}, b={b:g})", jacobian=henon_jac,
+                       state_names=["x", "y"])
+
+
+# ---------------------------------------------------------------- scenes
+def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSystem:
+    """A mechanism scene as a :class:`ContinuousSystem`.
+
+    scene_or_name: a Scene, a built-in scene name or a TOML path; overrides as for
+    ``nld.scene.load_scene`` (``["driver.speed=50", "joints.B.clearance=1e-4"]``).
+    The system uses the kernel's rhs/events/on_event and its disk-cached ``solve``; y0, z0 from
+    ``nld.simulate.initial_state``; scales from ``nld.simulate.state_scales`` (angles scaled by
+    clearance / lever arm, slides by the clearance, rates by those times the crank speed);
+    period = crank period; hmax = period / 20 as in ``simulate``. Extra attributes: ``scene``,
+    ``kernel``.
+    """
+    from .kernel import compile_scene
+    from .scene import load_scene
+    from .simulate import crank_period, initial_state, state_scales
+    if isinstance(scene_or_name, str):
+        scene = load_scene(scene_or_name, overrides)
+    else:
+        scene = scene_or_name
+        if overrides:
+            from .scene import apply_overrides, scene_from_dict, scene_to_dict
+            raw = scene_to_dict(scene)
+            apply_overrides(raw, overrides)
+            scene = scene_from_dict(raw, scene.source)
+    kern = kernel if kernel is not None else compile_scene(scene)
+    if kern.n_state == 0:
+        raise InputError(f"scene {scene.name!r} has no free coordinates (a kinematic chain): "
+                         "nothing to analyse")
+    y0, z0, q = initial_state(kern)
+    try:
+        period = crank_period(scene)
+    except InputError:
+        period = None
+    mod = kern.module
+    sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
+                            state_scales(kern, q), period, z0=z0, events=mod.events,
+                            on_event=mod.on_event, n_events=kern.n_events, solve=mod.solve)
+    sysm.scene = scene
+    sysm.kernel = kern
+    return sysm
