@@ -28,6 +28,13 @@ def _point(scene: Scene, names, poses, vels, body: int, pname: str):
     return np.array([x, y]) + d, np.array([vx - w * d[1], vy + w * d[0]])
 
 
+def _guide_direction(joint, parent_angle: float) -> np.ndarray:
+    """World unit vector of a prismatic joint's guide on a parent turned by parent_angle (rad)."""
+    ax = np.asarray(joint.axis, float) / math.hypot(*joint.axis)
+    c, s = math.cos(parent_angle), math.sin(parent_angle)
+    return np.array([c * ax[0] - s * ax[1], s * ax[0] + c * ax[1]])
+
+
 def tree_coordinates(scene: Scene, topo: Topology, poses: np.ndarray, vels: np.ndarray):
     """Map absolute poses (nb x 3: x, y, theta) and velocities to tree coordinates q, qd."""
     n = len(topo.coords)
@@ -47,9 +54,7 @@ def tree_coordinates(scene: Scene, topo: Topology, poses: np.ndarray, vels: np.n
             qd[k] = vels[b, 2] - pw
         else:
             j = scene.joints[e.joint]
-            ax = np.asarray(j.axis, float) / math.hypot(*j.axis)
-            c, s = math.cos(pth), math.sin(pth)
-            u = np.array([c * ax[0] - s * ax[1], s * ax[0] + c * ax[1]])
+            u = _guide_direction(j, pth)
             rg, vg = _point(scene, names, poses, vels, e.parent, e.parent_point)
             rs, vs = _point(scene, names, poses, vels, b, e.child_point)
             q[k] = float((rs - rg) @ u)
@@ -100,9 +105,7 @@ def forward_poses(scene: Scene, topo: Topology, q: np.ndarray) -> np.ndarray:
             th = pth + q[k]
         else:
             j = scene.joints[e.joint]
-            ax = np.asarray(j.axis, float) / math.hypot(*j.axis)
-            c, s = math.cos(pth), math.sin(pth)
-            u = np.array([c * ax[0] - s * ax[1], s * ax[0] + c * ax[1]])
+            u = _guide_direction(j, pth)
             rg, _ = _point(scene, names, poses, zero, e.parent, e.parent_point)
             rj = rg + q[k] * u
             b0, b1 = j.bodies

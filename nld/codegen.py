@@ -570,14 +570,18 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         out.append("        dy[0] = np.nan")
     out.append("")
 
+    def start_positions():
+        """A fresh function body that has every coordinate and body position."""
+        E.lines = []
+        E.ind = 1
+        E.coords_from_state("ev")
+        if loops:
+            E.newton_loops()
+        else:
+            E.positions()
+
     # events: penetration of each clearance joint, load switches
-    E.lines = []
-    E.ind = 1
-    E.coords_from_state("ev")
-    if loops:
-        E.newton_loops()
-    else:
-        E.positions()
+    start_positions()
     for ci, jn in enumerate(t.clearance):
         j = scene.joints[jn]
         E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=False)
@@ -597,13 +601,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
     out += E.lines + ["    return", ""]
 
     # on_event: record the approach velocity at contact onset
-    E.lines = []
-    E.ind = 1
-    E.coords_from_state("ev")
-    if loops:
-        E.newton_loops()
-    else:
-        E.positions()
+    start_positions()
     E.velocities(bias=False)
     for ci, jn in enumerate(t.clearance):
         j = scene.joints[jn]
