@@ -5,10 +5,12 @@
 
 Two crank revolutions at 5000 rpm, rtol 1e-6 and 1e-8, in one run:
 
-(i)   the generated scene kernel through nld's dopri5, called with the arguments ``nld.simulate``
-      uses (atol = rtol * state_scales, hmax = period/20, contact events on), without the
-      per-row observation that simulate adds afterwards, so both kernels do the same work;
-(ii)  the hand-written kernel (benchmarks/handwritten_slider_crank.py) through the same dopri5;
+(i)   the generated scene kernel through nld's dopri5 (the kernel module's ``solve``, the call
+      ``nld.simulate`` makes, with the same arguments: atol = rtol * state_scales, hmax =
+      period/20, contact events on), without the per-row observation that simulate adds
+      afterwards, so both kernels do the same work;
+(ii)  the hand-written kernel (benchmarks/handwritten_slider_crank.py) through the same dopri5,
+      wrapped the same way;
 (iii) scipy.integrate.solve_ivp, RK45 / DOP853 / LSODA, on the scene kernel's numba rhs wrapped in
       a Python function, with the same atol vector and max_step, over a ladder of rtol.
 
@@ -54,7 +56,6 @@ from numba import njit  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import handwritten_slider_crank as H  # noqa: E402
-from nld.integrators.dopri5 import dopri5  # noqa: E402
 from nld.kernel import compile_scene  # noqa: E402
 from nld.scene import load_scene  # noqa: E402
 from nld.simulate import crank_period, initial_state, state_scales  # noqa: E402
@@ -70,7 +71,8 @@ SAMPLES_PER_REV = 360        # nld.simulate's default output grid
 FINE_PER_REV = 7200          # output grid inside the error window (1.7 us at 5000 rpm)
 HD_DAMPING = 400.0           # N s/m: restitution 0.90 at 1 m/s (0.88-0.92 for 0.3-4 m/s), m = 0.14 kg
 MAX_STEPS = 50_000_000
-MAX_LOG = 200_000
+MAX_LOG = 200_000            # nld.simulate's event-log length
+SMALL_LOG = 1_000            # enough for these runs (< 150 events): shows the cost of the log
 TARGET_RATIO = 1.3
 TARGET_SPEEDUP = 30.0
 
@@ -88,6 +90,7 @@ class Case:
     scales: np.ndarray
     period: float
     t_eval: np.ndarray
+    t_time: np.ndarray          # output times of the timed runs: nld.simulate's default grid
     window: np.ndarray          # bool mask of t_eval rows inside the error window
     t_window: float             # s, end of the error window (an element of t_eval)
     ref: dict = field(default_factory=dict)
@@ -106,7 +109,7 @@ def make_case(law: str) -> Case:
     t_eval = t_eval[np.r_[True, np.diff(t_eval) > 1e-9 * per]]     # drop near-duplicates
     t_w = t_eval[np.argmin(np.abs(t_eval - WINDOW_REVS * per))]
     return Case(law, scene, kern, kern.params(scene), H.hand_params(scene), y0, z0,
-                state_scales(kern, q), per, t_eval, t_eval <= t_w, t_w)
+                state_scales(kern, q), per, t_eval, coarse, t_eval <= t_w, t_w)
 
 
 # ------------------------------------------------------------------ contact force along a solution
@@ -118,18 +121,6 @@ def _forces(ts, Y, ph, zs):
         z[0] = zs[i]
         out[i] = H.contact_force(ts[i], Y[i], ph, z)[0]
     return out
-
-
-def z_history(ts, ev_t, ev_dir, ev_v):
-    """Stored approach velocity z[0] at each time of ts from an event log (onset +1 sets, loss -1 clears)."""
-    zs = np.zeros(len(ts))
-    if len(ev_t) == 0:
-        return zs
-    k = np.searchsorted(ev_t, ts, side="left") - 1       # last event strictly before t
-    has = k >= 0
-    vals = np.where(np.asarray(ev_dir) > 0, ev_v, 0.0)
-    zs[has] = vals[k[has]]
-    return zs
 
 
 def metrics(case: Case, Y: np.ndarray, zs: np.ndarray) -> dict:
@@ -148,41 +139,32 @@ def errors(case: Case, m: dict) -> tuple[float, float]:
 
 
 # ------------------------------------------------------------------ nld dopri5 runs
-def _dopri5(case: Case, kernel: str, rtol: float, t_eval: np.ndarray):
+def _dopri5(case: Case, kernel: str, rtol: float, t_eval: np.ndarray, max_log: int = MAX_LOG):
+    """One run through the kernel module's ``solve`` (nld's dopri5 specialised for the kernel),
+    with the arguments nld.simulate passes to it."""
     mod, par = (case.kern.module, case.p) if kernel == "scene" else (H, case.ph)
     z = case.z0.copy()
-    out = dopri5(mod.rhs, mod.events, mod.on_event, 0.0, case.y0.copy(), t_eval, False, par, z,
-                 float(rtol), rtol * case.scales, 0.0, case.period / 20.0, MAX_STEPS,
-                 int(case.kern.n_events), MAX_LOG)
-    return out
+    return mod.solve(0.0, case.y0.copy(), t_eval, False, par, z, float(rtol), rtol * case.scales,
+                     0.0, case.period / 20.0, MAX_STEPS, int(case.kern.n_events), max_log)
 
 
 def dopri5_solution(case: Case, kernel: str, rtol: float):
-    """(Y on t_eval, z history, status, stats, events): one untimed run with the onset times added
-    to the output grid, so the stored approach velocity of every contact is known exactly. With
-    land=False the output grid does not change the steps, so Y equals the timed runs' Y."""
+    """(Y on case.t_eval, stored approach velocity z[0] per row, status, stats, events)."""
     out = _dopri5(case, kernel, rtol, case.t_eval)
-    n_ev = min(int(out[8]), MAX_LOG)
-    ev_t, ev_dir = out[5][:n_ev].copy(), out[7][:n_ev].copy()
-    t_aug = np.union1d(case.t_eval, ev_t)
-    out2 = _dopri5(case, kernel, rtol, t_aug)
-    idx = np.searchsorted(t_aug, case.t_eval)
-    Y = out2[2][idx]
-    if not np.array_equal(Y, out[2], equal_nan=True):
-        raise RuntimeError("extra output times changed the solution: dopri5 is not deterministic?")
-    y_on = out2[2][np.searchsorted(t_aug, ev_t)]
-    ev_v = np.array([max(H._gap(t, y, case.ph)[1], case.ph[H.V_MIN]) for t, y in zip(ev_t, y_on)])
-    return Y, z_history(case.t_eval, ev_t, ev_dir, ev_v), int(out[0]), out[4].copy(), n_ev
+    return out[2], np.ascontiguousarray(out[9][:, 0]), int(out[0]), out[4].copy(), int(out[8])
 
 
 # ------------------------------------------------------------------ scipy runs
-def scipy_run(case: Case, method: str, rtol: float, atol_scale=None, t_end=None, with_events=False):
-    """solve_ivp on the scene kernel's numba rhs. with_events: LN memory through terminal events
-    (onset: z = max(delta_dot, v_min); loss: z = 0) and restarts. Returns (Y, zs, ok, nfev)."""
+def scipy_run(case: Case, method: str, rtol: float, t_end=None, with_events=False, grid=None):
+    """solve_ivp on the scene kernel's numba rhs, output on ``grid`` (default case.t_eval) up to
+    t_end. with_events: LN memory through terminal events (onset: z = max(delta_dot, v_min);
+    loss: z = 0) and restarts. Returns (Y, zs, ok, nfev)."""
     rhs, p = case.kern.module.rhs, case.p
-    t_eval = case.t_eval if t_end is None else case.t_eval[case.t_eval <= t_end]
+    t_eval = case.t_eval if grid is None else grid
+    if t_end is not None:
+        t_eval = t_eval[t_eval <= t_end]
     t_end = t_eval[-1]
-    atol = (rtol if atol_scale is None else atol_scale) * case.scales
+    atol = rtol * case.scales
     z = case.z0.copy()
 
     def f(t, y):
@@ -231,6 +213,14 @@ def scipy_run(case: Case, method: str, rtol: float, atol_scale=None, t_end=None,
 
 
 # ------------------------------------------------------------------ timing
+def timed(fn) -> tuple[float, float]:
+    """(wall-clock, CPU) seconds of one call. CPU time (time.process_time) is the measure used: on
+    an idle machine the two agree; on a shared one wall-clock time includes waiting for a core."""
+    w, c = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - w, time.process_time() - c
+
+
 def reference(case: Case, log) -> None:
     """Tight reference on the error window: scipy DOP853 at rtol 1e-12; cross-check with dopri5."""
     t = time.perf_counter()
@@ -258,12 +248,14 @@ class Row:
     method: str          # "nld dopri5" | "scipy RK45" ...
     kernel: str          # "scene" | "hand" | "scene rhs in Python"
     rtol: float
-    time: float          # s, min of the timed runs (NaN if failed)
+    time: float          # s, min CPU time of the timed runs (NaN if failed)
     nfev: int
     steps: str
     pos_err: float       # m
     f_err: float         # relative
     ok: bool
+    time_small_log: float = math.nan   # s, same runs with a 1000-entry event log
+    wall: float = math.nan             # s, min wall-clock time of the timed runs
 
     @property
     def revs_per_s(self) -> float:
@@ -272,7 +264,8 @@ class Row:
 
 def bench_nld_pair(case: Case, rtol: float, repeats: int) -> dict[str, Row]:
     """Scene and hand-written kernel through dopri5; timed runs interleaved so that a change of
-    the machine's load hits both alike."""
+    the machine's load hits both alike. Each is timed with simulate's event log (MAX_LOG entries)
+    and with a short one (SMALL_LOG): the steps are the same, the allocation differs."""
     rows, ok = {}, {}
     for kernel in ("scene", "hand"):
         _dopri5(case, kernel, rtol, case.t_eval)                  # warm-up (compiles once)
@@ -281,14 +274,15 @@ def bench_nld_pair(case: Case, rtol: float, repeats: int) -> dict[str, Row]:
         pos, fe = errors(case, metrics(case, Y, zs)) if ok[kernel] else (math.nan, math.nan)
         rows[kernel] = Row(case.law, "nld dopri5", kernel, rtol, math.nan, int(stats[3]),
                            f"{stats[1]}/{stats[2]}", pos, fe, ok[kernel])
-    best = {"scene": math.inf, "hand": math.inf}
+    best = {(k, ml): [math.inf, math.inf] for k in ("scene", "hand") for ml in (MAX_LOG, SMALL_LOG)}
     for _ in range(repeats):
-        for kernel in ("scene", "hand"):
-            t = time.perf_counter()
-            _dopri5(case, kernel, rtol, case.t_eval)
-            best[kernel] = min(best[kernel], time.perf_counter() - t)
+        for (kernel, ml), b in best.items():
+            w, c = timed(lambda: _dopri5(case, kernel, rtol, case.t_time, ml))
+            b[0], b[1] = min(b[0], w), min(b[1], c)
     for kernel in rows:
-        rows[kernel].time = best[kernel] if ok[kernel] else math.nan
+        if ok[kernel]:
+            rows[kernel].wall, rows[kernel].time = best[(kernel, MAX_LOG)]
+            rows[kernel].time_small_log = best[(kernel, SMALL_LOG)][1]
     return rows
 
 
@@ -300,12 +294,11 @@ def bench_scipy(case: Case, method: str, rtol: float, repeats: int, with_events:
     if not ok:
         return Row(case.law, f"scipy {method}", kern, rtol, math.nan, nfev, "-", math.nan, math.nan, False)
     pos, fe = errors(case, metrics(case, Y, zs))
-    best = math.inf
+    bw = bc = math.inf
     for _ in range(repeats if t_first < 20.0 else 1):
-        t = time.perf_counter()
-        scipy_run(case, method, rtol, with_events=with_events)
-        best = min(best, time.perf_counter() - t)
-    return Row(case.law, f"scipy {method}", kern, rtol, best, nfev, "-", pos, fe, True)
+        w, c = timed(lambda: scipy_run(case, method, rtol, with_events=with_events, grid=case.t_time))
+        bw, bc = min(bw, w), min(bc, c)
+    return Row(case.law, f"scipy {method}", kern, rtol, bc, nfev, "-", pos, fe, True, wall=bw)
 
 
 # ------------------------------------------------------------------ report
@@ -331,25 +324,32 @@ def fmt(x, spec):
 
 def runs_table(rows: list[Row], clearance: float) -> list[str]:
     out = ["| contact law | method | kernel | rtol | time (ms) | rev/s | rhs evals | steps acc/rej "
-           "| journal error (m) | error / clearance | peak-force error |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+           f"| journal error (m) | error / clearance | peak-force error | time, {SMALL_LOG}-entry event log (ms) "
+           "| wall-clock (ms) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         out.append(f"| {r.law} | {r.method} | {r.kernel} | {r.rtol:.0e} | {fmt(r.time * 1e3, '.2f')} "
                    f"| {fmt(r.revs_per_s, '.0f')} | {r.nfev} | {r.steps} | {fmt(r.pos_err, '.2e')} "
-                   f"| {fmt(r.pos_err / clearance, '.1e')} | {fmt(r.f_err, '.1e')} |")
+                   f"| {fmt(r.pos_err / clearance, '.1e')} | {fmt(r.f_err, '.1e')} "
+                   f"| {fmt(r.time_small_log * 1e3, '.2f') if r.method.startswith('nld') else '-'} "
+                   f"| {fmt(r.wall * 1e3, '.2f')} |")
     return out
 
 
 def ratio_table(nld: dict) -> tuple[list[str], list[float]]:
     out = ["| contact law | rtol | scene kernel (ms) | hand-written (ms) | scene / hand "
-           f"| target <= {TARGET_RATIO} |", "|---|---|---|---|---|---|"]
+           f"| target <= {TARGET_RATIO} | rhs evals scene / hand | scene / hand per rhs evaluation "
+           f"| with a {SMALL_LOG}-entry event log: scene / hand (ms) | ratio |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     ratios = []
     for (law, rtol), pair in nld.items():
         s, h = pair["scene"], pair["hand"]
         r = s.time / h.time
         ratios.append(r)
         out.append(f"| {law} | {rtol:.0e} | {s.time * 1e3:.2f} | {h.time * 1e3:.2f} | {r:.2f} "
-                   f"| {'met' if r <= TARGET_RATIO else 'missed'} |")
+                   f"| {'met' if r <= TARGET_RATIO else 'missed'} | {s.nfev} / {h.nfev} "
+                   f"| {r * h.nfev / s.nfev:.2f} | {s.time_small_log * 1e3:.2f} / "
+                   f"{h.time_small_log * 1e3:.2f} | {s.time_small_log / h.time_small_log:.2f} |")
     return out, ratios
 
 
@@ -357,8 +357,9 @@ def speedup_table(nld: dict, law: str, sp: dict) -> tuple[list[str], list[float]
     """For each nld rtol: per scipy method the loosest ladder rtol with journal error <= nld's."""
     out = ["| nld rtol | nld journal error (m) | nld time (ms) | "
            + " | ".join(f"scipy {m} at equal error" for m in SCIPY_METHODS)
-           + f" | best scipy (ms) | speed-up | target >= {TARGET_SPEEDUP:g}x |",
-           "|---|---|---|" + "---|" * len(SCIPY_METHODS) + "---|---|---|"]
+           + f" | best scipy (ms) | speed-up | target >= {TARGET_SPEEDUP:g}x "
+           f"| speed-up, {SMALL_LOG}-entry event log |",
+           "|---|---|---|" + "---|" * len(SCIPY_METHODS) + "---|---|---|---|"]
     sus = []
     for rtol in NLD_RTOLS:
         s = nld[(law, rtol)]["scene"]
@@ -374,13 +375,14 @@ def speedup_table(nld: dict, law: str, sp: dict) -> tuple[list[str], list[float]
                 best = r
         lead = f"| {rtol:.0e} | {s.pos_err:.2e} | {s.time * 1e3:.2f} | " + " | ".join(cells)
         if best is None:
-            out.append(lead + " | NaN | NaN | - |")
+            out.append(lead + " | NaN | NaN | - | NaN |")
             sus.append(math.nan)
         else:
             su = best.time / s.time
             sus.append(su)
             out.append(lead + f" | {best.time * 1e3:.1f} ({best.method[6:]}, rtol {best.rtol:.0e}) "
-                       f"| {su:.0f}x | {'met' if su >= TARGET_SPEEDUP else 'missed'} |")
+                       f"| {su:.0f}x | {'met' if su >= TARGET_SPEEDUP else 'missed'} "
+                       f"| {best.time / s.time_small_log:.0f}x |")
     return out, sus
 
 
@@ -389,7 +391,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="shorter ladder and fewer timed repeats")
     ap.add_argument("--out", default=str(HERE / "results" / "simulator.md"))
     args = ap.parse_args(argv)
-    rep_nld, rep_sp = (10, 1) if args.quick else (30, 3)
+    rep_nld, rep_sp = (20, 1) if args.quick else (100, 5)
     ladder = LADDER_QUICK if args.quick else LADDER
     info = machine_info()
 
@@ -412,7 +414,8 @@ def main(argv=None) -> int:
             nld[(law, rtol)] = pair
             for kernel, r in pair.items():
                 rows.append(r)
-                log(f"  {law:19s} nld dopri5 {kernel:5s} rtol {rtol:.0e}: {r.time * 1e3:8.2f} ms, "
+                log(f"  {law:19s} nld dopri5 {kernel:5s} rtol {rtol:.0e}: {r.time * 1e3:8.2f} ms "
+                    f"({r.time_small_log * 1e3:.2f} ms with a short event log), "
                     f"journal error {r.pos_err:.2e} m, peak force {r.f_err:.1e}")
     sp: dict[str, dict] = {}
     for law, with_events in (("hertz_damped", False), ("lankarani_nikravesh", True)):
@@ -441,9 +444,16 @@ def main(argv=None) -> int:
         f"{info['load']} at the start, {info['load_end']} at the end (shared machine).",
         "",
         f"Protocol: one warm-up run, then the minimum of {rep_nld} (nld; scene and hand-written runs "
-        f"interleaved) / {rep_sp} (scipy) timed runs, wall clock. Time = integration only, no "
-        f"observation; output on the same {len(hd.t_eval)} times for every method (360 per "
-        f"revolution, plus {FINE_PER_REV} per revolution in the error window). atol = rtol * "
+        f"interleaved) / {rep_sp} (scipy) timed runs. Time = CPU time of the process "
+        "(time.process_time; equal to wall-clock time on an idle machine, while on this shared one "
+        "wall-clock time also counts waiting for a core; both are in the last table) spent in the "
+        "integration only, no "
+        f"observation, output on nld.simulate's default {len(hd.t_time)} times (360 per revolution) "
+        "for every method. The warm-up run of each configuration is also its measured solve: it "
+        f"outputs on {len(hd.t_eval)} times ({FINE_PER_REV} per revolution in the error window), "
+        "which changes no step of any of the integrators. nld runs with simulate's arguments, "
+        f"including its {MAX_LOG}-entry event log, and again with a {SMALL_LOG}-entry log (same "
+        "steps; the difference is the cost of allocating the log). atol = rtol * "
         "nld.simulate.state_scales and max step = period/20 for every method. Errors over the first "
         f"{WINDOW_REVS:g} revolution against scipy DOP853 at rtol {REF_RTOL:g} (nld dopri5 at rtol "
         f"{REF_RTOL:g} differs from it by {hd.ref['check'][0]:.1e} m (hertz_damped) and "
@@ -454,7 +464,7 @@ def main(argv=None) -> int:
         "lankarani_nikravesh: the shipped scene; solve_ivp stops at each contact onset and loss "
         "(terminal events), stores the approach velocity and restarts.",
         "",
-        "## Scene kernel against hand-written kernel (same dopri5)",
+        "## Scene kernel against hand-written kernel (same dopri5, each through its module's `solve`)",
         "",
         *ratios,
         "",

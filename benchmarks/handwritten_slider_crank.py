@@ -56,6 +56,8 @@ import math
 import numpy as np
 from numba import njit
 
+from nld.integrators.dopri5 import dopri5
+
 # indices of the hand-written parameter vector p_hand
 A_CRANK, D_ROD, L_ROD, M_ROD, J_ROD, M_SLIDER, GX, GY, OMEGA, THETA0, CLEAR, K_C, N_EXP, CR, V_MIN, C_DAMP, LAW = range(17)
 N_PARAMS = 17
@@ -145,6 +147,14 @@ def on_event(k, direction, t, y, p, z):
     else:
         z[0] = 0.0
     return 0
+
+
+@njit(cache=True)
+def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+    """nld's dopri5 on this kernel: the same module-level wrapper as the generated kernels' ``solve``
+    (so numba's disk cache holds the integrator specialised for this right-hand side)."""
+    return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+                  max_steps, n_events, max_log)
 
 
 @njit(cache=True)

@@ -48,7 +48,18 @@ def structure_key(scene: Scene, topo: Topology) -> dict:
         "driver": None if scene.driver is None else (scene.driver.joint, scene.driver.mode),
         "loads": [(ld.type, ld.body, ld.point, ld.bodies, ld.points, ld.modulation, len(ld.table_angles))
                   for ld in scene.loads],
+        "solvers": solver_fingerprint(),
     }
+
+
+def solver_fingerprint() -> str:
+    """Hash of the integrators inlined into the generated solve wrappers. numba's disk cache does not
+    notice a change in them (only in the kernel file itself), so a change must rename the kernel."""
+    import hashlib
+    from pathlib import Path
+    d = Path(__file__).parent / "integrators"
+    return hashlib.sha1(b"".join((d / f).read_bytes() for f in ("dopri5.py", "dop853.py", "rosenbrock.py"))
+                        ).hexdigest()[:12]
 
 
 class Emitter:
@@ -701,4 +712,15 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         "                  max_steps, n_events, max_log)",
         "",
     ]
+    # the other integrators (simulate(method=...)), wrapped the same way; compiled on first use
+    for fn, mod in (("dop853", "dop853"), ("rodas", "rosenbrock")):
+        out += [
+            f"from nld.integrators.{mod} import {fn}",
+            "",
+            "@njit(cache=True)",
+            f"def solve_{fn}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):",
+            f"    return {fn}(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
+            "                max_steps, n_events, max_log)",
+            "",
+        ]
     return "\n".join(out) + "\n"

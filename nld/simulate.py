@@ -101,14 +101,15 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
              rtol: float = DEFAULT_RTOL, t_eval=None, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
              overrides=None, y0=None, z0=None, t0: float = 0.0, land: bool = False,
              max_steps: int = 50_000_000, hmax: float | None = None, kernel: Kernel | None = None,
-             raise_on_failure: bool = False) -> SimulationResult:
-    """Simulate a scene with the adaptive Dormand-Prince 5(4) integrator.
+             raise_on_failure: bool = False, method: str = "dopri5") -> SimulationResult:
+    """Simulate a scene with the adaptive Dormand-Prince 5(4) integrator (or ``method``).
 
     scene: a Scene, a built-in name or a TOML path (``overrides`` as for ``nld --set``).
     t_end (s) or revs (crank revolutions): the end of the run. rtol: relative tolerance; absolute
     tolerances are ``rtol * state_scales`` (clearance-scaled). t_eval: output times (s); default
     ``samples_per_rev`` per crank revolution. land: land exactly on the output times (stroboscopic
-    sampling). hmax (s): step cap, default a twentieth of a crank period.
+    sampling). hmax (s): step cap, default a twentieth of a crank period. method: "dopri5" (default),
+    "dop853", "rodas" (stiff) or "scipy:RK45|DOP853|Radau|LSODA" (docs/integrators.md).
     """
     from .integrators.dopri5 import status_message
     from .scene import load_scene
@@ -121,6 +122,10 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         scene = scene_from_dict(raw, scene.source)
     if not (isinstance(rtol, float | int) and 1e-14 <= rtol < 1):
         raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
+    if method != "dopri5":
+        from .integrators import METHODS
+        if method not in METHODS:
+            raise InputError(f"method = {method!r}: choose one of {', '.join(METHODS)}")
     kern = kernel if kernel is not None else compile_scene(scene)
     p = kern.params(scene)
     if t_end is None:
@@ -172,12 +177,23 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
                 hmax = (t_end - t0) / 20.0
         n_ev = kern.n_events
         max_log = 200_000
-        out = kern.module.solve(float(t0), np.ascontiguousarray(y0, dtype=float), t_eval, bool(land), p, z,
-                                float(rtol), atol, 0.0, float(hmax), int(max_steps), int(n_ev), max_log)
+        if method == "dopri5":
+            out = kern.module.solve(float(t0), np.ascontiguousarray(y0, dtype=float), t_eval, bool(land), p, z,
+                                    float(rtol), atol, 0.0, float(hmax), int(max_steps), int(n_ev), max_log)
+        else:
+            from .integrators import solve_method
+            out = solve_method(kern, method, float(t0), np.ascontiguousarray(y0, dtype=float), t_eval, bool(land),
+                               p, z, float(rtol), atol, 0.0, float(hmax), int(max_steps), int(n_ev), max_log)
         status, t_reached, Y, n_out, st, ev_t, ev_k, ev_dir, n_logged, Z = out
         stats = dict(steps=int(st[0]), accepted=int(st[1]), rejected=int(st[2]), rhs=int(st[3]),
                      events=int(st[4]))
-        message = status_message(status, t_reached, st)
+        if len(st) > 5:
+            stats.update(jac=int(st[5]), lu=int(st[6]))
+        if method == "dopri5":
+            message = status_message(status, t_reached, st)
+        else:
+            from .integrators import method_status_message
+            message = method_status_message(method, status, t_reached, st)
         rows = np.empty((n_out, ncols))
         kern.module.observe_all(t_eval, Y, Z, n_out, p, rows)
         nl = min(int(n_logged), max_log)
@@ -190,7 +206,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     wall = time.perf_counter() - start
     table = pd.DataFrame(rows, columns=kern.columns)
     table.insert(0, "t", t_eval[: len(rows)])
-    prov = provenance(scene, kern, rtol=rtol, t_end=t_end, wall=wall)
+    prov = provenance(scene, kern, rtol=rtol, t_end=t_end, wall=wall, integrator=method)
     res = SimulationResult(table, int(status), message, float(t_reached), stats, ev, y_final, z, prov)
     if raise_on_failure and not res.success:
         raise SolveError(res.message)

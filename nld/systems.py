@@ -39,7 +39,7 @@ from numba import njit
 from .errors import InputError, SolveError
 from .integrators.dopri5 import dopri5, no_events, no_on_event, status_message
 
-__all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate",
+__all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
            "lorenz", "duffing", "logistic", "henon", "linear"]
 
 DEFAULT_MAX_STEPS = 50_000_000
@@ -140,6 +140,7 @@ class DiscreteMap:
     is_map = True
     period = None
     time_unit = "iteration"
+    builtin_code = None      # set for the built-in maps (cached analyses via builtin_map)
 
     def __init__(self, f, x0, p=(), name: str = "map", jacobian=None, state_names=None,
                  scales=None):
@@ -227,30 +228,50 @@ def linear_rhs(t, y, p, z, dy):
         dy[i] = p[0] * y[i]
 
 
-@njit(cache=True)
-def _solve_lorenz(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
-    return dopri5(lorenz_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                  hmax, max_steps, n_events, max_log)
+# One disk-cached DOPRI5 for all built-in flows (one compilation instead of one per system):
+# the rhs dispatches on a model code that _BuiltinSolve puts in front of the parameters.
+_LORENZ, _DUFFING, _LINEAR = 0, 1, 2
 
 
 @njit(cache=True)
-def _solve_duffing(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
+def _builtin_rhs(t, y, p, z, dy):
+    code = int(p[0])
+    q = p[1:]
+    if code == _LORENZ:
+        lorenz_rhs(t, y, q, z, dy)
+    elif code == _DUFFING:
+        duffing_rhs(t, y, q, z, dy)
+    else:
+        linear_rhs(t, y, q, z, dy)
+
+
+@njit(cache=True)
+def _solve_builtin(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
                    max_log):
-    return dopri5(duffing_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                  hmax, max_steps, n_events, max_log)
+    return dopri5(_builtin_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol,
+                  h0, hmax, max_steps, n_events, max_log)
 
 
-@njit(cache=True)
-def _solve_linear(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
-    return dopri5(linear_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                  hmax, max_steps, n_events, max_log)
+class _BuiltinSolve:
+    """``solve`` of a built-in flow: the cached integrator with the model code prepended to p."""
+
+    def __init__(self, code: int):
+        self.code = float(code)
+
+    def __call__(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
+                 max_log):
+        pp = np.empty(p.shape[0] + 1)
+        pp[0] = self.code
+        pp[1:] = p
+        return _solve_builtin(t0, y0, t_eval, land, pp, z, rtol, atol, h0, hmax, max_steps,
+                              n_events, max_log)
 
 
 def lorenz(sigma: float = 10.0, rho: float = 28.0, beta: float = 8.0 / 3.0,
            y0=(1.0, 1.0, 1.0)) -> ContinuousSystem:
     """Lorenz system; at the classical (10, 28, 8/3) the spectrum is 0.906, 0, -14.572 (1/time)."""
     return ContinuousSystem(lorenz_rhs, y0, [sigma, rho, beta], "lorenz", ["x", "y", "z"],
-                            solve=_solve_lorenz)
+                            solve=_BuiltinSolve(_LORENZ))
 
 
 def duffing(delta: float = 0.3, alpha: float = -1.0, beta: float = 1.0, gamma: float = 0.5,
@@ -262,13 +283,17 @@ def duffing(delta: float = 0.3, alpha: float = -1.0, beta: float = 1.0, gamma: f
     are chaotic.
     """
     return ContinuousSystem(duffing_rhs, y0, [delta, alpha, beta, gamma, omega], "duffing",
-                            ["x", "x_dot"], period=2.0 * math.pi / omega, solve=_solve_duffing)
+                            ["x", "x_dot"], period=2.0 * math.pi / omega, solve=_BuiltinSolve(_DUFFING))
 
 
-def linear(a: float = -0.5, y0=(1.0,)) -> ContinuousSystem:
-    """x' = a x (every state); every Lyapunov exponent is a."""
+def linear(a: float = -0.5, y0=(0.0,)) -> ContinuousSystem:
+    """x' = a x (every state); every Lyapunov exponent is a.
+
+    The default reference is the fixed point 0, so that for a > 0 the reference stays bounded
+    over any horizon (a separation d0 away from a state that has grown to 1e9 is lost in
+    round-off)."""
     y0 = np.atleast_1d(np.array(y0, dtype=float))
-    return ContinuousSystem(linear_rhs, y0, [a], f"linear(a={a:g})", solve=_solve_linear)
+    return ContinuousSystem(linear_rhs, y0, [a], f"linear(a={a:g})", solve=_BuiltinSolve(_LINEAR))
 
 
 # ---------------------------------------------------------------- built-in maps
@@ -299,16 +324,41 @@ def henon_jac(x, p, J):
     J[1, 1] = 0.0
 
 
+_LOGISTIC, _HENON = 0, 1
+
+
+@njit(cache=True)
+def builtin_map(x, p, out):
+    """The built-in maps behind one function (p = [code, parameters...]), so that the map
+    analyses compiled for it are disk-cached once for all of them (nld.lyapunov)."""
+    if int(p[0]) == _LOGISTIC:
+        logistic_f(x, p[1:], out)
+    else:
+        henon_f(x, p[1:], out)
+
+
+@njit(cache=True)
+def builtin_map_jac(x, p, J):
+    if int(p[0]) == _LOGISTIC:
+        logistic_jac(x, p[1:], J)
+    else:
+        henon_jac(x, p[1:], J)
+
+
 def logistic(r: float = 4.0, x0: float = 0.4) -> DiscreteMap:
     """Logistic map x -> r x (1 - x); at r = 4 the exponent is ln 2 per iteration."""
-    return DiscreteMap(logistic_f, [x0], [r], f"logistic(r={r:g})", jacobian=logistic_jac,
-                       state_names=["x"])
+    m = DiscreteMap(logistic_f, [x0], [r], f"logistic(r={r:g})", jacobian=logistic_jac,
+                    state_names=["x"])
+    m.builtin_code = _LOGISTIC
+    return m
 
 
 def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
     """Henon map; at (1.4, 0.3): 0.419, -1.623 per iteration, sum ln b."""
-    return DiscreteMap(henon_f, x0, [a, b], f"henon(a={a:g}, b={b:g})", jacobian=henon_jac,
-                       state_names=["x", "y"])
+    m = DiscreteMap(henon_f, x0, [a, b], f"henon(a={a:g}, b={b:g})", jacobian=henon_jac,
+                    state_names=["x", "y"])
+    m.builtin_code = _HENON
+    return m
 
 
 # ---------------------------------------------------------------- scenes
@@ -351,3 +401,29 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSyst
     sysm.scene = scene
     sysm.kernel = kern
     return sysm
+
+
+def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
+               rtol: float = 1e-10):
+    """States sampled every dt after a transient: (t, Y), Y[i] = y(transient + i dt).
+
+    Flows: DOPRI5 with dense output (t in s). Maps: dt is ignored, Y[i] = x_{transient + i}.
+    """
+    n_samples = int(n_samples)
+    if system.is_map:
+        x = iterate(system, system.y0, int(transient))
+        Y = np.empty((n_samples, system.n))
+        for i in range(n_samples):
+            Y[i] = x
+            x = iterate(system, x, 1)
+        return np.arange(n_samples, dtype=float) + int(transient), Y
+    y, z = system.y0.copy(), system.z0.copy()
+    if transient > 0:
+        y, z = advance(system, y, z, 0.0, transient, rtol)
+    t_eval = transient + dt * np.arange(n_samples)
+    out = system.solve(float(transient), y, t_eval, False, system.p, z, float(rtol),
+                       rtol * system.scales, 0.0, float(system.hmax), DEFAULT_MAX_STEPS,
+                       int(system.n_events), 1)
+    if out[0] != 0:
+        raise SolveError(f"{system.name}: " + status_message(out[0], out[1], out[4]))
+    return t_eval, out[2]

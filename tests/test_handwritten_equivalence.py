@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nld.integrators.dopri5 import dopri5
 from nld.kernel import compile_scene
 from nld.scene import load_scene
 from nld.simulate import crank_period, initial_state, state_scales
@@ -169,7 +168,7 @@ def test_events_agree(setup):
 
 
 def run_pair(scene, kern, p, ph, revs=0.3, rtol=1e-9):
-    """Both kernels through dopri5 with the arguments nld.simulate uses."""
+    """Both kernels through nld's dopri5 (each module's ``solve``) with simulate's arguments."""
     y0, z0, q = initial_state(kern)
     atol = rtol * state_scales(kern, q)
     per = crank_period(scene)
@@ -177,8 +176,8 @@ def run_pair(scene, kern, p, ph, revs=0.3, rtol=1e-9):
     outs = []
     for mod, par in ((kern.module, p), (H, ph)):
         z = z0.copy()
-        out = dopri5(mod.rhs, mod.events, mod.on_event, 0.0, y0.copy(), t_eval, False, par, z,
-                     rtol, atol, 0.0, per / 20.0, 50_000_000, 1, 200_000)
+        out = mod.solve(0.0, y0.copy(), t_eval, False, par, z, rtol, atol, 0.0, per / 20.0,
+                        50_000_000, 1, 200_000)
         assert out[0] == 0
         outs.append(out)
     return t_eval, outs

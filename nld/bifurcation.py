@@ -1,0 +1,609 @@
+"""Bifurcation sweeps: stroboscopic Poincaré points over a range of any scene parameter.
+
+:func:`sweep` runs, for every value of one ``--set`` key (``driver.speed``,
+``joints.B.clearance``, ``joints.B.friction.mu`` ...), a stroboscopic section
+(:func:`nld.poincare.stroboscopic`): ``transient_revs`` crank revolutions discarded, then ``revs``
+section points; each point also gets a period estimate (:func:`nld.poincare.period_of`) and,
+optionally, the largest Lyapunov exponent (``nld.lyapunov.lyapunov_benettin``).
+
+* Independent points (default) run in parallel: a local ``ProcessPoolExecutor`` (spawned
+  workers, each warmed once by an initializer that loads the kernel from numba's disk cache;
+  points sent in batches), or a Dask cluster (``dask=`` scheduler address or
+  ``distributed.Client``). The numbers do not depend on where a point ran: local and Dask
+  sweeps give identical tables, point for point.
+* ``continuation=True``: each point starts from the previous point's final state (a multiple of
+  the crank period, so the trajectory is continued, not restarted); the sweep is then sequential
+  per direction and runs in this process. ``up_down=True`` sweeps the values in the given order
+  ("up") and then back ("down"); with continuation the down sweep starts from the end of the up
+  sweep, which exposes hysteresis (coexisting attractors).
+* A point that fails (a SceneError for its value, an integration that stops: non-finite state,
+  max_steps, ...) is recorded with status "failed" and its message, and the sweep goes on; with
+  continuation the next point restarts from the assembled initial state.
+
+Output (``out=DIR``): one parquet file per finished point, ``DIR/point-<direction>-<index>.parquet``,
+written atomically when the point finishes (a killed sweep loses only the points in progress),
+with the point's final state and wall time in its metadata, plus ``DIR/provenance.json`` (nld version, git hash,
+scene with all its parameters, param, values, tolerances and settings). ``resume=True`` skips the
+points whose file exists (the settings must match those in provenance.json). :func:`load_sweep`
+reads the directory back into one table.
+
+Table columns: ``value`` (the parameter value), ``direction`` ("up"/"down"), ``index`` (position
+of the value in ``values``), ``rev`` (crank revolution of the section point; -1 on the single row of
+a failed point), the observables (SI units of their table columns), ``period`` (0: none found
+up to n_max), ``lyapunov`` (1/s; NaN when not computed), ``lyapunov_uncertainty`` (1/s),
+``status`` ("ok"/"failed"), ``message``. Rows come in sweep order: the up points by
+increasing index, then the down points by decreasing index, then by rev.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+
+__all__ = ["sweep", "load_sweep", "parse_values", "add_arguments", "cli_bifurcation"]
+
+PROVENANCE = "provenance.json"
+META_KEY = b"nld_point"
+DIRECTIONS = ("up", "down")
+# settings that must match for resume=True
+_SETTINGS = ("scene_parameters", "param", "values", "transient_revs", "revs", "observables",
+             "rtol", "continuation", "up_down", "max_steps", "period_tol", "n_max", "lyapunov",
+             "lyapunov_revs", "lyapunov_rtol")
+
+
+@dataclass
+class _Spec:
+    """Everything a worker needs to run a point (picklable)."""
+    raw: dict                    # resolved scene (scene_to_dict) with the base overrides applied
+    source: str
+    param: str
+    transient_revs: int
+    revs: int
+    observables: list | None
+    rtol: float
+    max_steps: int
+    period_tol: float
+    n_max: int
+    lyapunov: bool
+    lyapunov_revs: int
+    lyapunov_rtol: float | None
+    out: str | None = None
+    cache_dir: str | None = field(default=None)
+
+
+# ---------------------------------------------------------------------------------------------------
+# one point
+
+
+def _scene_for(spec: _Spec, value):
+    from .scene import apply_overrides, scene_from_dict
+    raw = copy.deepcopy(spec.raw)
+    apply_overrides(raw, {spec.param: value})
+    return scene_from_dict(raw, spec.source)
+
+
+def _failed_table(spec: _Spec, observables) -> pd.DataFrame:
+    d = {"rev": np.array([-1], dtype=np.int64)}
+    for o in observables:
+        d[o] = np.array([np.nan])
+    return pd.DataFrame(d)
+
+
+def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None) -> dict:
+    """Run one point; never raises for a bad value or a failed integration (status 'failed')."""
+    from .kernel import compile_scene
+    from .poincare import default_observables, period_of, stroboscopic
+    start = time.perf_counter()
+    notes = []
+    obs = spec.observables
+    status, message = "ok", ""
+    lyap = lyap_unc = math.nan
+    y_final = z_final = None
+    period = 0
+    try:
+        scene = _scene_for(spec, value)
+        kern = compile_scene(scene)
+        if obs is None:
+            obs = default_observables(kern)
+        if y0 is not None and (len(y0) != kern.n_state or len(z0) != kern.n_z):
+            notes.append("continuation reset: the state size changed")
+            y0 = z0 = None
+        sec = stroboscopic(scene, transient_revs=spec.transient_revs, revs=spec.revs,
+                           observables=obs, rtol=spec.rtol, y0=y0, z0=z0, kernel=kern,
+                           max_steps=spec.max_steps)
+        message = sec.message
+        if not sec.success or len(sec.table) < spec.revs:
+            status = "failed"
+            table = _failed_table(spec, obs)
+        else:
+            table = sec.table.drop(columns=["t"]).reset_index(drop=True)
+            period = period_of(sec.points, tol=spec.period_tol, n_max=spec.n_max)
+            y_final, z_final = sec.y_final.tolist(), sec.z_final.tolist()
+            if spec.lyapunov:
+                lyap, lyap_unc, note = _lyapunov(spec, scene, kern, sec)
+                if note:
+                    notes.append(note)
+    except Exception as e:        # noqa: BLE001 - a point's failure is data, the sweep goes on
+        status = "failed"
+        message = f"{type(e).__name__}: {' '.join(str(e).split())}"
+        obs = obs if obs is not None else []
+        table = _failed_table(spec, obs)
+    if notes:
+        message = (message + "; " if message else "") + "; ".join(notes)
+    n = len(table)
+    table.insert(0, "index", np.full(n, int(index), dtype=np.int64))
+    table.insert(0, "direction", [direction] * n)
+    table.insert(0, "value", [value] * n)
+    table["period"] = np.full(n, int(period), dtype=np.int64)
+    table["lyapunov"] = np.full(n, lyap)
+    table["lyapunov_uncertainty"] = np.full(n, lyap_unc)
+    table["status"] = [status] * n
+    table["message"] = [message] * n
+    wall = time.perf_counter() - start
+    rec = dict(direction=direction, index=int(index), value=value, status=status,
+               message=message, y_final=y_final, z_final=z_final, wall=wall, table=table)
+    if spec.out is not None:
+        _write_point(Path(spec.out), rec)
+    return rec
+
+
+def _lyapunov(spec: _Spec, scene, kern, sec):
+    """(exponent 1/s, uncertainty 1/s, note) from the end of the section, or NaNs and a note."""
+    try:
+        from .lyapunov import lyapunov_benettin
+        from .systems import SceneSystem
+    except ImportError as e:
+        return math.nan, math.nan, f"lyapunov skipped: nld.lyapunov not available ({e})"
+    try:
+        system = SceneSystem(scene, kernel=kern)
+        system.y0 = np.array(sec.y_final, dtype=float)
+        system.z0 = np.array(sec.z_final, dtype=float)
+        res = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
+                                rtol=spec.lyapunov_rtol)
+        return float(res.exponent), float(res.uncertainty), ""
+    except Exception as e:        # noqa: BLE001
+        return math.nan, math.nan, f"lyapunov failed: {type(e).__name__}: {' '.join(str(e).split())}"
+
+
+def _run_batch(spec: _Spec, batch) -> list[dict]:
+    return [_run_point(spec, d, i, v) for d, i, v in batch]
+
+
+_WORKER_SPEC: _Spec | None = None
+
+
+def _warm_worker(spec: _Spec, value) -> int:
+    """Load the kernel (numba disk cache) once per worker process; returns the pid."""
+    global _WORKER_SPEC
+    _WORKER_SPEC = spec
+    if spec.cache_dir and not os.environ.get("NLD_CACHE_DIR"):
+        os.environ["NLD_CACHE_DIR"] = spec.cache_dir
+    try:
+        from .kernel import compile_scene
+        from .simulate import crank_period, simulate
+        scene = _scene_for(spec, value)
+        kern = compile_scene(scene)
+        simulate(scene, t_eval=np.array([0.0, 0.01 * crank_period(scene)]), land=True,
+                 kernel=kern, rtol=spec.rtol)
+    except Exception:             # noqa: BLE001 - the points report their own errors
+        pass
+    return os.getpid()
+
+
+# ---------------------------------------------------------------------------------------------------
+# files
+
+
+def _point_path(out: Path, direction: str, index: int) -> Path:
+    return out / f"point-{direction}-{index:05d}.parquet"
+
+
+def _write_point(out: Path, rec: dict) -> Path:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    path = _point_path(out, rec["direction"], rec["index"])
+    table = pa.Table.from_pandas(rec["table"], preserve_index=False)
+    meta = {k: rec[k] for k in ("direction", "index", "value", "status", "message", "y_final",
+                                "z_final", "wall")}
+    md = dict(table.schema.metadata or {})
+    md[META_KEY] = json.dumps(meta, default=_json_default).encode()
+    table = table.replace_schema_metadata(md)
+    tmp = out / f".{path.name}.{os.getpid()}.tmp"
+    try:
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+def _read_point(path: Path) -> dict:
+    import pyarrow.parquet as pq
+    t = pq.read_table(path)
+    meta = json.loads((t.schema.metadata or {}).get(META_KEY, b"{}").decode())
+    meta["table"] = t.to_pandas()
+    return meta
+
+
+def load_sweep(out) -> pd.DataFrame:
+    """All finished points of a sweep directory as one table (see the module docstring), sweep
+    order; ``attrs["provenance"]`` holds provenance.json."""
+    out = Path(out).expanduser()
+    if not out.is_dir():
+        raise InputError(f"sweep directory not found: {out}")
+    prov_path = out / PROVENANCE
+    prov = json.loads(prov_path.read_text()) if prov_path.is_file() else {}
+    frames = []
+    for p in sorted(out.glob("point-*.parquet")):
+        frames.append(_read_point(p)["table"])
+    if not frames:
+        df = pd.DataFrame(columns=["value", "direction", "index", "rev", "period", "lyapunov",
+                                   "lyapunov_uncertainty", "status", "message"])
+    else:
+        df = _sorted(pd.concat(frames, ignore_index=True))
+    df.attrs["provenance"] = prov
+    return df
+
+
+def _sorted(df: pd.DataFrame) -> pd.DataFrame:
+    if df.empty:
+        return df
+    dkey = df["direction"].map({"up": 0, "down": 1}).to_numpy()
+    ikey = np.where(dkey == 0, df["index"].to_numpy(), -df["index"].to_numpy())
+    order = np.lexsort((df["rev"].to_numpy(), ikey, dkey))
+    return df.iloc[order].reset_index(drop=True)
+
+
+# ---------------------------------------------------------------------------------------------------
+# the sweep
+
+
+def parse_values(text: str) -> list[float]:
+    """``"100:500:9"`` -> 9 values from 100 to 500 (linspace, ends included); ``"1,2,5"`` -> a list."""
+    text = str(text).strip()
+    try:
+        if ":" in text:
+            parts = text.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+            if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
+                raise ValueError
+            return [float(v) for v in np.linspace(a, b, n)]
+        vals = [float(v) for v in text.split(",") if v.strip()]
+        if not vals:
+            raise ValueError
+        return vals
+    except ValueError:
+        raise InputError(f"--values = {text!r}: give START:STOP:NUM (e.g. 100:500:9) or a "
+                         "comma-separated list of numbers") from None
+
+
+def _current_value(raw: dict, key: str):
+    cur = raw
+    for part in key.split("."):
+        if isinstance(cur, dict) and part in cur:
+            cur = cur[part]
+        elif isinstance(cur, list) and part.isdigit() and int(part) < len(cur):
+            cur = cur[int(part)]
+        else:
+            return _MISSING
+    return cur
+
+
+_MISSING = object()
+
+
+def _plain_value(v):
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+        raise InputError(f"values: {v!r} is not a number or a string")
+    return float(v) if isinstance(v, int) else v
+
+
+def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 50,
+          observables=None, rtol: float = 1e-8, continuation: bool = False, up_down: bool = False,
+          workers: int | None = None, dask=None, out=None, resume: bool = False,
+          lyapunov: bool = False, overrides=None, max_steps: int = 50_000_000,
+          period_tol: float = 1e-6, n_max: int = 16, lyapunov_revs: int | None = None,
+          lyapunov_rtol: float | None = None, batch_size: int | None = None,
+          progress=None) -> pd.DataFrame:
+    """Bifurcation sweep of ``param`` over ``values`` (see the module docstring).
+
+    scene: Scene, built-in name or TOML path; overrides: base ``--set`` values applied first.
+    param: any ``--set`` key (``driver.speed``, ``joints.B.clearance``, ...); values: numbers
+    (or strings, for a key that takes a string).
+    transient_revs, revs, observables, rtol, max_steps: as :func:`nld.poincare.stroboscopic`.
+    period_tol, n_max: as :func:`nld.poincare.period_of`.
+    continuation / up_down: see the module docstring.
+    workers: local worker processes (default: the CPU count, at most one per point; 1 runs in
+    this process); dask: a ``distributed.Client`` or a scheduler address ("tcp://host:8786")
+    instead of the local pool. batch_size: points per task (default ceil(points/(4 workers))).
+    out: output directory (one parquet per point + provenance.json); resume: skip the points
+    whose file exists. lyapunov: also the largest exponent by ``nld.lyapunov.lyapunov_benettin``
+    over ``lyapunov_revs`` (default revs) revolutions from the end of the section (rtol
+    ``lyapunov_rtol``, default the lyapunov module's), skipped with a note in ``message`` when
+    nld.lyapunov is not available. progress: optional callable(done, total, record).
+
+    Returns the table of all points (also the resumed ones), as :func:`load_sweep`.
+    """
+    from . import __version__
+    from .provenance import git_hash
+    from .scene import scene_to_dict
+    from .poincare import _check_count, _load
+    sc = _load(scene, overrides)
+    raw = scene_to_dict(sc)
+    if not isinstance(param, str) or _current_value(raw, param) is _MISSING:
+        raise InputError(f"param = {param!r}: not a value of scene {sc.name!r} (a --set key such as "
+                         "driver.speed or joints.B.clearance)")
+    values = [_plain_value(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
+    if not values:
+        raise InputError("values: give at least one")
+    transient_revs = _check_count("transient_revs", transient_revs, 0)
+    revs = _check_count("revs", revs, 1)
+    if isinstance(observables, str):
+        observables = [o.strip() for o in observables.split(",") if o.strip()]
+    lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
+    spec = _Spec(raw=raw, source=sc.source, param=param, transient_revs=transient_revs, revs=revs,
+                 observables=list(observables) if observables is not None else None,
+                 rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
+                 n_max=int(min(n_max, max(1, revs // 2))), lyapunov=bool(lyapunov),
+                 lyapunov_revs=int(lyapunov_revs),
+                 lyapunov_rtol=None if lyapunov_rtol is None else float(lyapunov_rtol),
+                 out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"))
+    settings = dict(scene=sc.name, scene_parameters=raw, param=param, values=values,
+                    transient_revs=transient_revs, revs=revs, observables=spec.observables,
+                    rtol=spec.rtol, continuation=bool(continuation), up_down=bool(up_down),
+                    max_steps=spec.max_steps, period_tol=spec.period_tol, n_max=spec.n_max,
+                    lyapunov=spec.lyapunov, lyapunov_revs=spec.lyapunov_revs,
+                    lyapunov_rtol=spec.lyapunov_rtol)
+    prov = dict(nld_version=__version__, git_hash=git_hash(), kind="bifurcation",
+                integrator="dopri5", **settings)
+    done = {}
+    outp = None
+    if out is not None:
+        outp = Path(out).expanduser()
+        _prepare_out(outp, prov, resume)
+        spec.out = str(outp)
+        if resume:
+            for p in outp.glob("point-*.parquet"):
+                try:
+                    rec = _read_point(p)
+                except Exception:         # noqa: BLE001 - an unreadable file: run the point again
+                    continue
+                done[(rec["direction"], int(rec["index"]))] = rec
+    elif resume:
+        raise InputError("resume=True needs out (the directory of the interrupted sweep)")
+    dirs = ["up", "down"] if up_down else ["up"]
+    order = {"up": list(range(len(values))), "down": list(range(len(values)))[::-1]}
+    points = [(d, i, values[i]) for d in dirs for i in order[d]]
+    total = len(points)
+    results = dict(done)
+    counter = [len(done)]
+
+    def finished(rec):
+        results[(rec["direction"], rec["index"])] = rec
+        counter[0] += 1
+        if progress is not None:
+            progress(counter[0], total, rec)
+
+    start = time.perf_counter()
+    if continuation:
+        _run_chain(spec, points, done, finished)
+    else:
+        todo = [pt for pt in points if (pt[0], pt[1]) not in done]
+        if todo:
+            if dask is not None:
+                _run_dask(spec, todo, dask, batch_size, finished)
+            else:
+                _run_local(spec, todo, workers, batch_size, finished)
+    frames = [results[(d, i)]["table"] for d, i, _ in points if (d, i) in results]
+    df = _sorted(pd.concat(frames, ignore_index=True)) if frames else pd.DataFrame()
+    prov["wall"] = time.perf_counter() - start
+    df.attrs["provenance"] = prov
+    return df
+
+
+def _prepare_out(outp: Path, prov: dict, resume: bool) -> None:
+    try:
+        outp.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"out = {str(outp)!r}: cannot create the directory ({e.strerror or e})") from None
+    existing = list(outp.glob("point-*.parquet"))
+    pp = outp / PROVENANCE
+    if pp.is_file() and (resume or existing):
+        old = json.loads(pp.read_text())
+        for k in _SETTINGS:
+            new = json.loads(json.dumps(prov.get(k), default=_json_default))
+            if json.dumps(old.get(k), sort_keys=True) != json.dumps(new, sort_keys=True):
+                raise InputError(f"out = {str(outp)!r} holds a different sweep ({k} differs): use "
+                                 "another directory, or the same settings to resume")
+    if existing and not resume:
+        raise InputError(f"out = {str(outp)!r} already holds {len(existing)} finished points: pass "
+                         "resume=True (--resume) to continue that sweep, or use another directory")
+    text = json.dumps(prov, indent=2, default=_json_default) + "\n"
+    tmp = outp / f".{PROVENANCE}.{os.getpid()}.tmp"
+    tmp.write_text(text)
+    os.replace(tmp, pp)
+
+
+def _run_chain(spec, points, done, finished):
+    """Continuation: sequential, each point from the previous point's final state."""
+    y = z = None
+    for d, i, v in points:
+        if (d, i) in done:
+            rec = done[(d, i)]
+        else:
+            rec = _run_point(spec, d, i, v, y, z)
+            finished(rec)
+        if rec.get("status") == "ok" and rec.get("y_final") is not None:
+            y, z = np.array(rec["y_final"], dtype=float), np.array(rec["z_final"], dtype=float)
+        else:
+            y = z = None
+
+
+def _batches(points, n_workers, batch_size):
+    if batch_size is None:
+        batch_size = max(1, math.ceil(len(points) / (4 * max(1, n_workers))))
+    batch_size = int(batch_size)
+    if batch_size < 1:
+        raise InputError(f"batch_size = {batch_size}: must be >= 1")
+    return [points[k:k + batch_size] for k in range(0, len(points), batch_size)]
+
+
+def _run_local(spec, todo, workers, batch_size, finished):
+    import multiprocessing as mp
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"workers = {workers!r}: must be an integer >= 1")
+    workers = min(workers, len(todo))
+    if workers == 1:
+        for d, i, v in todo:
+            finished(_run_point(spec, d, i, v))
+        return
+    batches = _batches(todo, workers, batch_size)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                             initializer=_warm_worker, initargs=(spec, todo[0][2])) as ex:
+        futures = [ex.submit(_run_batch, spec, b) for b in batches]
+        try:
+            for fut in as_completed(futures):
+                for rec in fut.result():
+                    finished(rec)
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def _dask_client(dask):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("dask: the distributed package is missing: pip install \"dask[distributed]\"") from None
+    if isinstance(dask, Client):
+        return dask, False
+    if isinstance(dask, str):
+        try:
+            return Client(dask, timeout="30s"), True
+        except OSError as e:
+            raise InputError(f"dask = {dask!r}: cannot reach the scheduler ({e})") from None
+    raise InputError(f"dask = {dask!r}: give a distributed.Client or a scheduler address")
+
+
+def _run_dask(spec, todo, dask, batch_size, finished):
+    from distributed import as_completed as dask_completed
+    client, own = _dask_client(dask)
+    try:
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        client.run(_warm_worker, spec, todo[0][2])      # every worker loads the kernel once
+        # results come back to this process, which writes each point's file (the cluster's
+        # workers need not see the output directory)
+        wspec = copy.copy(spec)
+        wspec.out = None
+        futures = [client.submit(_run_batch, wspec, b, pure=False)
+                   for b in _batches(todo, n_workers, batch_size)]
+        for fut in dask_completed(futures):
+            for rec in fut.result():
+                if spec.out is not None:
+                    _write_point(Path(spec.out), rec)
+                finished(rec)
+    finally:
+        if own:
+            client.close()
+
+
+# ---------------------------------------------------------------------------------------------------
+# command line (registered by nld.cli: see docs/analysis.md)
+
+
+def add_arguments(subparsers):
+    """Add ``nld bifurcation`` to the sub-commands of nld's parser; returns the sub-parser."""
+    from .cli import _rtol_arg
+    from .poincare import _count_arg
+    sp = subparsers.add_parser(
+        "bifurcation", help="bifurcation sweep of a scene parameter (stroboscopic points)",
+        description="Sweep one scene value (any --set key) and record the stroboscopic Poincaré "
+                    "points after a transient, a period estimate and optionally the largest "
+                    "Lyapunov exponent, one parquet file per point in --out DIR.")
+    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
+    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
+    sp.add_argument("--param", required=True, metavar="KEY",
+                    help="the swept value, a --set key such as driver.speed")
+    sp.add_argument("--values", required=True, type=_values_arg, metavar="START:STOP:NUM|V1,V2,...",
+                    help="values: START:STOP:NUM (ends included) or a comma-separated list")
+    sp.add_argument("--out", required=True, metavar="DIR", help="output directory (parquet per point)")
+    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=100,
+                    metavar="N", help="revolutions discarded per point (default 100)")
+    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=50, metavar="N",
+                    help="section points per value (default 50)")
+    sp.add_argument("--observables", default=None, metavar="COLS",
+                    help="comma-separated table columns (default <first clearance joint>.ex,.ey)")
+    sp.add_argument("--rtol", type=_rtol_arg, default=1e-8, metavar="R",
+                    help="relative tolerance (default 1e-08)")
+    sp.add_argument("--continuation", action="store_true",
+                    help="start each point from the previous point's final state (sequential)")
+    sp.add_argument("--up-down", action="store_true",
+                    help="sweep up then down (hysteresis; use with --continuation)")
+    sp.add_argument("--workers", type=_count_arg("--workers", 1), default=None, metavar="N",
+                    help="local worker processes (default: CPU count)")
+    sp.add_argument("--dask", default=None, metavar="ADDRESS",
+                    help="run on a Dask cluster at this scheduler address instead")
+    sp.add_argument("--resume", action="store_true", help="skip the points already in --out")
+    sp.add_argument("--lyapunov", action="store_true",
+                    help="also the largest Lyapunov exponent of every point (slower)")
+    sp.set_defaults(func=cli_bifurcation)
+    return sp
+
+
+def _values_arg(text: str):
+    import argparse
+    try:
+        return parse_values(text)
+    except InputError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def cli_bifurcation(args) -> int:
+    """``nld bifurcation``: run the sweep, print one line per point and the output directory."""
+    import sys
+
+    def progress(k, n, rec):
+        per = rec["table"]["period"].iloc[0]
+        print(f"[{k}/{n}] {args.param} = {rec['value']!s} ({rec['direction']}): {rec['status']}, "
+              f"period {per if per else '-'} ({rec['wall']:.3g} s)"
+              + (f": {rec['message']}" if rec["status"] != "ok" else ""), flush=True)
+
+    df = sweep(args.scene, args.param, args.values, transient_revs=args.transient_revs,
+               revs=args.revs, observables=args.observables, rtol=args.rtol,
+               continuation=args.continuation, up_down=args.up_down, workers=args.workers,
+               dask=args.dask, out=args.out, resume=args.resume, lyapunov=args.lyapunov,
+               overrides=args.overrides, progress=progress)
+    pts = df.drop_duplicates(["direction", "index"])
+    n_failed = int((pts["status"] != "ok").sum())
+    print(f"wrote {len(pts)} points to {args.out} (read with nld.bifurcation.load_sweep)")
+    if n_failed:
+        print(f"nld: warning: {n_failed} of {len(pts)} points failed (status 'failed' in the table)",
+              file=sys.stderr)
+    return 1 if n_failed == len(pts) else 0

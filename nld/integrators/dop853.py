@@ -1,0 +1,695 @@
+"""Adaptive Dormand-Prince 8(5,3) integrator (Hairer's DOP853) with 7th-order dense output and
+event location, in numba, with the interface, events and statuses of :mod:`nld.integrators.dopri5`.
+
+Method: the explicit 12-stage Runge-Kutta pair of Dormand & Prince of order 8 with Hairer's
+error estimator combining an embedded 5th-order and 3rd-order solution, the 7th-order continuous
+extension (three extra stages) and the step-size control and initial step of the Fortran code
+``dop853.f`` (E. Hairer, S. P. Norsett, G. Wanner, *Solving Ordinary Differential Equations I*,
+2nd ed., Springer 1993, sec. II.5 and II.10). The coefficients are Hairer's, as tabulated in
+``dop853.f`` (and, to the same 30 digits, in SciPy's ``dop853_coefficients.py``; the tests check
+that the two agree). See ``docs/integrators.md``.
+
+Interface (identical to ``dopri5``)::
+
+    status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z = dop853(
+        rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+        max_steps, n_events, max_log)
+
+``stats = [steps, accepted, rejected, rhs evaluations, events]`` (length 5, as dopri5).
+
+This module also holds the method-independent event and output helpers shared with
+:mod:`nld.integrators.rosenbrock`: ``locate_event`` (Illinois root finding on any dense output
+given as an ``interp(theta, cont, out)`` function), ``find_crossings``, ``set_unknown_signs``,
+``fire_events`` and ``write_outputs``. They follow dopri5's event semantics exactly (tracked
+signs, left end moved off a just-fired root, earliest root wins, step retaken to land on it).
+
+Caching: as for dopri5, ``dop853`` and the helpers that take user functions are
+``inline='always'``; call ``dop853`` from an ``@njit(cache=True)`` wrapper whose
+rhs/events/on_event are module globals (the generated kernel's ``solve_dop853``).
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .dopri5 import EPS, MAX_NONFINITE, ROOT_MAXITER, ROOT_RTOL
+
+# ---------------------------------------------------------------- Hairer's DOP853 coefficients
+# Rows 0..11: the 12 stages; row 12: the 8th-order weights B (the FSAL point, K[12] =
+# f(t + h, y_new)); rows 13..15: the three extra stages of the dense output.
+C = np.array([0.0,
+              0.526001519587677318785587544488e-01,
+              0.789002279381515978178381316732e-01,
+              0.118350341907227396726757197510,
+              0.281649658092772603273242802490,
+              0.333333333333333333333333333333,
+              0.25,
+              0.307692307692307692307692307692,
+              0.651282051282051282051282051282,
+              0.6,
+              0.857142857142857142857142857142,
+              1.0,
+              1.0,
+              0.1,
+              0.2,
+              0.777777777777777777777777777778])
+
+A = np.zeros((16, 16))
+A[1, 0] = 5.26001519587677318785587544488e-2
+A[2, 0] = 1.97250569845378994544595329183e-2
+A[2, 1] = 5.91751709536136983633785987549e-2
+A[3, 0] = 2.95875854768068491816892993775e-2
+A[3, 2] = 8.87627564304205475450678981324e-2
+A[4, 0] = 2.41365134159266685502369798665e-1
+A[4, 2] = -8.84549479328286085344864962717e-1
+A[4, 3] = 9.24834003261792003115737966543e-1
+A[5, 0] = 3.7037037037037037037037037037e-2
+A[5, 3] = 1.70828608729473871279604482173e-1
+A[5, 4] = 1.25467687566822425016691814123e-1
+A[6, 0] = 3.7109375e-2
+A[6, 3] = 1.70252211019544039314978060272e-1
+A[6, 4] = 6.02165389804559606850219397283e-2
+A[6, 5] = -1.7578125e-2
+A[7, 0] = 3.70920001185047927108779319836e-2
+A[7, 3] = 1.70383925712239993810214054705e-1
+A[7, 4] = 1.07262030446373284651809199168e-1
+A[7, 5] = -1.53194377486244017527936158236e-2
+A[7, 6] = 8.27378916381402288758473766002e-3
+A[8, 0] = 6.24110958716075717114429577812e-1
+A[8, 3] = -3.36089262944694129406857109825
+A[8, 4] = -8.68219346841726006818189891453e-1
+A[8, 5] = 2.75920996994467083049415600797e1
+A[8, 6] = 2.01540675504778934086186788979e1
+A[8, 7] = -4.34898841810699588477366255144e1
+A[9, 0] = 4.77662536438264365890433908527e-1
+A[9, 3] = -2.48811461997166764192642586468
+A[9, 4] = -5.90290826836842996371446475743e-1
+A[9, 5] = 2.12300514481811942347288949897e1
+A[9, 6] = 1.52792336328824235832596922938e1
+A[9, 7] = -3.32882109689848629194453265587e1
+A[9, 8] = -2.03312017085086261358222928593e-2
+A[10, 0] = -9.3714243008598732571704021658e-1
+A[10, 3] = 5.18637242884406370830023853209
+A[10, 4] = 1.09143734899672957818500254654
+A[10, 5] = -8.14978701074692612513997267357
+A[10, 6] = -1.85200656599969598641566180701e1
+A[10, 7] = 2.27394870993505042818970056734e1
+A[10, 8] = 2.49360555267965238987089396762
+A[10, 9] = -3.0467644718982195003823669022
+A[11, 0] = 2.27331014751653820792359768449
+A[11, 3] = -1.05344954667372501984066689879e1
+A[11, 4] = -2.00087205822486249909675718444
+A[11, 5] = -1.79589318631187989172765950534e1
+A[11, 6] = 2.79488845294199600508499808837e1
+A[11, 7] = -2.85899827713502369474065508674
+A[11, 8] = -8.87285693353062954433549289258
+A[11, 9] = 1.23605671757943030647266201528e1
+A[11, 10] = 6.43392746015763530355970484046e-1
+A[12, 0] = 5.42937341165687622380535766363e-2
+A[12, 5] = 4.45031289275240888144113950566
+A[12, 6] = 1.89151789931450038304281599044
+A[12, 7] = -5.8012039600105847814672114227
+A[12, 8] = 3.1116436695781989440891606237e-1
+A[12, 9] = -1.52160949662516078556178806805e-1
+A[12, 10] = 2.01365400804030348374776537501e-1
+A[12, 11] = 4.47106157277725905176885569043e-2
+A[13, 0] = 5.61675022830479523392909219681e-2
+A[13, 6] = 2.53500210216624811088794765333e-1
+A[13, 7] = -2.46239037470802489917441475441e-1
+A[13, 8] = -1.24191423263816360469010140626e-1
+A[13, 9] = 1.5329179827876569731206322685e-1
+A[13, 10] = 8.20105229563468988491666602057e-3
+A[13, 11] = 7.56789766054569976138603589584e-3
+A[13, 12] = -8.298e-3
+A[14, 0] = 3.18346481635021405060768473261e-2
+A[14, 5] = 2.83009096723667755288322961402e-2
+A[14, 6] = 5.35419883074385676223797384372e-2
+A[14, 7] = -5.49237485713909884646569340306e-2
+A[14, 10] = -1.08347328697249322858509316994e-4
+A[14, 11] = 3.82571090835658412954920192323e-4
+A[14, 12] = -3.40465008687404560802977114492e-4
+A[14, 13] = 1.41312443674632500278074618366e-1
+A[15, 0] = -4.28896301583791923408573538692e-1
+A[15, 5] = -4.69762141536116384314449447206
+A[15, 6] = 7.68342119606259904184240953878
+A[15, 7] = 4.06898981839711007970213554331
+A[15, 8] = 3.56727187455281109270669543021e-1
+A[15, 12] = -1.39902416515901462129418009734e-3
+A[15, 13] = 2.9475147891527723389556272149
+A[15, 14] = -9.15095847217987001081870187138
+
+B = A[12, :12].copy()
+
+# embedded 3rd-order weights (Hairer's BHH1..3): E3 = B - BHH
+BHH1 = 0.244094488188976377952755905512
+BHH2 = 0.733846688281611857341361741547
+BHH3 = 0.220588235294117647058823529412e-1
+E3 = np.zeros(13)
+E3[:12] = B
+E3[0] -= BHH1
+E3[8] -= BHH2
+E3[11] -= BHH3
+
+E5 = np.zeros(13)
+E5[0] = 0.1312004499419488073250102996e-1
+E5[5] = -0.1225156446376204440720569753e+1
+E5[6] = -0.4957589496572501915214079952
+E5[7] = 0.1664377182454986536961530415e+1
+E5[8] = -0.3503288487499736816886487290
+E5[9] = 0.3341791187130174790297318841
+E5[10] = 0.8192320648511571246570742613e-1
+E5[11] = -0.2235530786388629525884427845e-1
+D = np.zeros((4, 16))
+D[0, 0] = -0.84289382761090128651353491142e+1
+D[0, 5] = 0.56671495351937776962531783590
+D[0, 6] = -0.30689499459498916912797304727e+1
+D[0, 7] = 0.23846676565120698287728149680e+1
+D[0, 8] = 0.21170345824450282767155149946e+1
+D[0, 9] = -0.87139158377797299206789907490
+D[0, 10] = 0.22404374302607882758541771650e+1
+D[0, 11] = 0.63157877876946881815570249290
+D[0, 12] = -0.88990336451333310820698117400e-1
+D[0, 13] = 0.18148505520854727256656404962e+2
+D[0, 14] = -0.91946323924783554000451984436e+1
+D[0, 15] = -0.44360363875948939664310572000e+1
+D[1, 0] = 0.10427508642579134603413151009e+2
+D[1, 5] = 0.24228349177525818288430175319e+3
+D[1, 6] = 0.16520045171727028198505394887e+3
+D[1, 7] = -0.37454675472269020279518312152e+3
+D[1, 8] = -0.22113666853125306036270938578e+2
+D[1, 9] = 0.77334326684722638389603898808e+1
+D[1, 10] = -0.30674084731089398182061213626e+2
+D[1, 11] = -0.93321305264302278729567221706e+1
+D[1, 12] = 0.15697238121770843886131091075e+2
+D[1, 13] = -0.31139403219565177677282850411e+2
+D[1, 14] = -0.93529243588444783865713862664e+1
+D[1, 15] = 0.35816841486394083752465898540e+2
+D[2, 0] = 0.19985053242002433820987653617e+2
+D[2, 5] = -0.38703730874935176555105901742e+3
+D[2, 6] = -0.18917813819516756882830838328e+3
+D[2, 7] = 0.52780815920542364900561016686e+3
+D[2, 8] = -0.11573902539959630126141871134e+2
+D[2, 9] = 0.68812326946963000169666922661e+1
+D[2, 10] = -0.10006050966910838403183860980e+1
+D[2, 11] = 0.77771377980534432092869265740
+D[2, 12] = -0.27782057523535084065932004339e+1
+D[2, 13] = -0.60196695231264120758267380846e+2
+D[2, 14] = 0.84320405506677161018159903784e+2
+D[2, 15] = 0.11992291136182789328035130030e+2
+D[3, 0] = -0.25693933462703749003312586129e+2
+D[3, 5] = -0.15418974869023643374053993627e+3
+D[3, 6] = -0.23152937917604549567536039109e+3
+D[3, 7] = 0.35763911791061412378285349910e+3
+D[3, 8] = 0.93405324183624310003907691704e+2
+D[3, 9] = -0.37458323136451633156875139351e+2
+D[3, 10] = 0.10409964950896230045147246184e+3
+D[3, 11] = 0.29840293426660503123344363579e+2
+D[3, 12] = -0.43533456590011143754432175058e+2
+D[3, 13] = 0.96324553959188282948394950600e+2
+D[3, 14] = -0.39177261675615439165231486172e+2
+D[3, 15] = -0.14972683625798562581422125276e+3
+
+# ---------------------------------------------------------------- step-size control (dop853.f)
+SAFE = 0.9
+FAC1 = 0.333     # hnew/h >= FAC1
+FAC2 = 6.0       # hnew/h <= FAC2
+FACC1 = 1.0 / FAC1
+FACC2 = 1.0 / FAC2
+BETA = 0.0       # dop853.f default: no PI term
+EXPO1 = 1.0 / 8.0 - BETA * 0.2
+FACOLD0 = 1.0e-4
+
+
+# ================================================================ shared event / output helpers
+@njit(cache=True)
+def set_unknown_signs(g, sgn):
+    """Give every event whose tracked sign is still undetermined (0) the sign of g_k."""
+    for k in range(g.shape[0]):
+        if sgn[k] == 0:
+            if g[k] > 0.0:
+                sgn[k] = 1
+            elif g[k] < 0.0:
+                sgn[k] = -1
+
+
+@njit(cache=True)
+def find_crossings(gnew, sgn, crossed):
+    """crossed[k] = g_k left the side it is tracked on; returns whether any did."""
+    any_crossed = False
+    for k in range(gnew.shape[0]):
+        crossed[k] = sgn[k] != 0 and gnew[k] * sgn[k] <= 0.0
+        if crossed[k]:
+            any_crossed = True
+    return any_crossed
+
+
+@njit(cache=True, inline='always')
+def locate_event(events, interp, k, s, t, h, t_new, gl, gr, cont, yint, gtmp, p, z, tol):
+    """Illinois (modified regula falsi) for g_k on the dense output ``interp(theta, cont, out)``
+    of the step [t, t_new] (h = t_new - t); same contract as ``dopri5._locate``.
+
+    ``s`` is the tracked sign of g_k, gr = g_k(t_new) is on the other side or 0. Returns the
+    bracket end on the new side, i.e. at most ``tol`` after the root. If gl = g_k(t) is not
+    strictly on side s (just after an event at t), the left end is moved to the first of
+    t + tol*4^j where g_k is on side s; if there is none, the crossing is "now" and t is
+    returned."""
+    if gr == 0.0:
+        return t_new
+    a = t
+    fa = gl
+    if gl * s <= 0.0:
+        d = tol
+        while True:
+            a = t + d
+            if a >= t_new:
+                return t
+            interp((a - t) / h, cont, yint)
+            events(a, yint, p, z, gtmp)
+            fa = gtmp[k]
+            if fa * s > 0.0:
+                break
+            d *= 4.0
+    b = t_new
+    fb = gr
+    side = 0
+    for _ in range(ROOT_MAXITER):
+        if b - a <= tol or b - a <= 4.0 * EPS * abs(b):
+            break
+        c = b - fb * (b - a) / (fb - fa)
+        if not (c > a and c < b):
+            c = 0.5 * (a + b)
+        interp((c - t) / h, cont, yint)
+        events(c, yint, p, z, gtmp)
+        fc = gtmp[k]
+        if fc == 0.0:
+            return c
+        if fc * fb > 0.0:          # c is on b's side: b moves, a is retained
+            b = c
+            fb = fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:                      # c is on a's side (or fc is NaN): a moves
+            a = c
+            fa = fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+    return b
+
+
+@njit(cache=True, inline='always')
+def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
+    """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output (step length h).
+    Returns the next output index."""
+    n_eval = t_eval.shape[0]
+    n = y_hi.shape[0]
+    while i_out < n_eval and t_eval[i_out] <= t_hi:
+        te = t_eval[i_out]
+        if te == t_hi:
+            for j in range(n):
+                Y[i_out, j] = y_hi[j]
+        else:
+            interp((te - t) / h, cont, Y[i_out])
+        Zo[i_out, :] = z
+        i_out += 1
+    return i_out
+
+
+@njit(cache=True, inline='always')
+def fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t, ev_k, ev_dir,
+                n_ev, max_log):
+    """Call on_event for every crossing whose root is within tol of t_star, log it and flip its
+    tracked sign. Returns (stop, n_ev)."""
+    stop = False
+    for k in range(crossed.shape[0]):
+        if crossed[k] and troot[k] <= t_star + tol:
+            direction = -sgn[k]
+            if n_ev < max_log:
+                ev_t[n_ev] = t
+                ev_k[n_ev] = k
+                ev_dir[n_ev] = direction
+            n_ev += 1
+            sgn[k] = direction
+            if on_event(k, direction, t, y, p, z) == 1:
+                stop = True
+    return stop, n_ev
+
+
+@njit(cache=True, inline='always')
+def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
+    """Hairer's HINIT for a method of the given order (one extra rhs evaluation)."""
+    n = y.shape[0]
+    dnf = 0.0
+    dny = 0.0
+    for i in range(n):
+        sk = atol[i] + rtol * abs(y[i])
+        dnf += (f0[i] / sk) ** 2
+        dny += (y[i] / sk) ** 2
+    if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf) or not math.isfinite(dny):
+        h = 1.0e-6
+    else:
+        h = math.sqrt(dny / dnf) * 0.01
+    h = min(h, hmax, span)
+    for i in range(n):
+        y1[i] = y[i] + h * f0[i]
+    rhs(t0 + h, y1, p, z, f1)
+    der2 = 0.0
+    for i in range(n):
+        sk = atol[i] + rtol * abs(y[i])
+        der2 += ((f1[i] - f0[i]) / sk) ** 2
+    der2 = math.sqrt(der2) / h
+    der12 = max(abs(der2), math.sqrt(dnf))
+    if not math.isfinite(der12):
+        h1 = abs(h) * 1.0e-3
+    elif der12 <= 1e-15:
+        h1 = max(1.0e-6, abs(h) * 1.0e-3)
+    else:
+        h1 = (0.01 / der12) ** (1.0 / order)
+    return min(100.0 * abs(h), h1, hmax, span)
+
+
+# ================================================================ DOP853 kernels
+@njit(cache=True, inline='always')
+def _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z):
+    """One DOP853 step from (t, y) with K[0] = f(t, y): fills K[1..11], ynew and
+    K[12] = f(t_new, ynew) (FSAL)."""
+    n = y.shape[0]
+    for s in range(1, 12):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        ts = t_new if s == 11 else t + C[s] * h
+        rhs(ts, ytmp, p, z, K[s])
+    for i in range(n):
+        acc = 0.0
+        for j in range(12):
+            acc += B[j] * K[j, i]
+        ynew[i] = y[i] + h * acc
+    rhs(t_new, ynew, p, z, K[12])
+
+
+@njit(cache=True)
+def _error_norm(h, y, ynew, K, atol, rtol):
+    """Hairer's DOP853 error: |h| err5^2 / sqrt(n (err5^2 + 0.01 err3^2)) (RMS-scaled);
+    NaN if anything is non-finite."""
+    n = y.shape[0]
+    err = 0.0
+    err2 = 0.0
+    for i in range(n):
+        yn = ynew[i]
+        if not math.isfinite(yn):
+            return np.nan
+        sk = atol[i] + rtol * max(abs(y[i]), abs(yn))
+        e3 = 0.0
+        e5 = 0.0
+        for j in range(12):
+            e3 += E3[j] * K[j, i]
+            e5 += E5[j] * K[j, i]
+        err2 += (e3 / sk) ** 2
+        err += (e5 / sk) ** 2
+    if n == 0:
+        return 0.0
+    deno = err + 0.01 * err2
+    if deno <= 0.0:
+        deno = 1.0
+    e = abs(h) * err * math.sqrt(1.0 / (n * deno))
+    if not math.isfinite(e):
+        return np.nan
+    return e
+
+
+@njit(cache=True, inline='always')
+def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
+    """Three extra stages K[13..15] and the coefficients of the 7th-order continuous extension:
+    cont = [y, F0..F6] (K[0] = f(t, y), K[12] = f(t + h, ynew) must be current)."""
+    n = y.shape[0]
+    for s in range(13, 16):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        rhs(t + C[s] * h, ytmp, p, z, K[s])
+    for i in range(n):
+        dy = ynew[i] - y[i]
+        bspl = h * K[0, i] - dy
+        cont[0, i] = y[i]
+        cont[1, i] = dy
+        cont[2, i] = bspl
+        cont[3, i] = dy - h * K[12, i] - bspl
+        for r in range(4):
+            acc = 0.0
+            for j in range(16):
+                acc += D[r, j] * K[j, i]
+            cont[4 + r, i] = h * acc
+
+
+@njit(cache=True)
+def interp(theta, cont, out):
+    """Dense output y(t + theta h) from cont = [y, F0..F6] (Hairer's CONTD8)."""
+    th1 = 1.0 - theta
+    for i in range(out.shape[0]):
+        out[i] = cont[0, i] + theta * (cont[1, i] + th1 * (cont[2, i] + theta * (
+            cont[3, i] + th1 * (cont[4, i] + theta * (cont[5, i] + th1 * (
+                cont[6, i] + theta * cont[7, i]))))))
+
+
+@njit(cache=True, inline='always')
+def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+           max_steps, n_events, max_log):
+    """Adaptive DOP853 from t0 to t_eval[-1]; same arguments, results and statuses as dopri5.
+
+    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
+
+    status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
+    underflow, -3 non-finite values. stats = [steps, accepted, rejected, rhs evals, events].
+    """
+    n = y0.shape[0]
+    n_eval = t_eval.shape[0]
+    ne = n_events
+
+    for i in range(1, n_eval):
+        if t_eval[i] < t_eval[i - 1]:
+            raise ValueError("t_eval must be sorted ascending")
+    if n_eval > 0 and t_eval[0] < t0:
+        raise ValueError("t_eval must lie within [t0, t_end]")
+    if atol.shape[0] != n:
+        raise ValueError("atol must have one entry per state")
+
+    Y = np.full((n_eval, n), np.nan)
+    Zo = np.zeros((n_eval, z.shape[0]))
+    stats = np.zeros(5, dtype=np.int64)
+    ev_t = np.zeros(max_log, dtype=np.float64)
+    ev_k = np.zeros(max_log, dtype=np.int64)
+    ev_dir = np.zeros(max_log, dtype=np.int64)
+    n_ev = 0
+
+    y = np.empty(n)
+    ynew = np.empty(n)
+    ytmp = np.empty(n)
+    yint = np.empty(n)
+    K = np.empty((16, n))
+    cont = np.empty((8, n))
+    gcur = np.empty(ne)
+    gnew = np.empty(ne)
+    gtmp = np.empty(ne)
+    sgn = np.zeros(ne, dtype=np.int64)
+    troot = np.empty(ne)
+    crossed = np.zeros(ne, dtype=np.bool_)
+
+    for i in range(n):
+        y[i] = y0[i]
+    t = t0
+    i_out = 0
+    while i_out < n_eval and t_eval[i_out] <= t0:
+        for j in range(n):
+            Y[i_out, j] = y0[j]
+        Zo[i_out, :] = z
+        i_out += 1
+    if i_out >= n_eval:
+        return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+    t_end = t_eval[n_eval - 1]
+
+    n_steps = 0
+    n_acc = 0
+    n_rej = 0
+    nfev = 0
+
+    rhs(t, y, p, z, K[0])
+    nfev += 1
+    if ne > 0:
+        events(t, y, p, z, gcur)
+        set_unknown_signs(gcur, sgn)
+
+    span = t_end - t0
+    hcap = span
+    if hmax > 0.0 and hmax < hcap:
+        hcap = hmax
+    if h0 > 0.0:
+        h = min(h0, hcap)
+    else:
+        h = initial_step(rhs, t0, y, K[0], p, z, atol, rtol, hcap, span, ytmp, K[1], 8.0)
+        nfev += 1
+    if not (h > 0.0) or not math.isfinite(h):
+        h = 1e-6 * span
+
+    facold = FACOLD0
+    reject = False
+    n_nonfinite = 0
+    status = 0
+
+    while True:
+        if t >= t_end:
+            status = 0
+            break
+        if n_steps >= max_steps:
+            status = -1
+            break
+        target = t_eval[i_out] if land else t_end
+        if h > hcap:
+            h = hcap
+        if h < 4.0 * EPS * abs(t):
+            h = 4.0 * EPS * abs(t)
+        if t + 1.01 * h >= target:
+            t_new = target
+        else:
+            t_new = t + h
+        h = t_new - t
+        n_steps += 1
+
+        _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z)
+        nfev += 12
+        err = _error_norm(h, y, ynew, K, atol, rtol)
+
+        if not math.isfinite(err):
+            n_rej += 1
+            n_nonfinite += 1
+            reject = True
+            h = 0.5 * h
+            if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+                status = -3
+                break
+            continue
+        n_nonfinite = 0
+
+        fac11 = err ** EXPO1
+        if err > 1.0:
+            h = h / min(FACC1, fac11 / SAFE)
+            reject = True
+            n_rej += 1
+            if h < 16.0 * EPS * abs(t) or h < 1e-300:
+                status = -2
+                break
+            continue
+
+        fac = fac11 / facold ** BETA
+        fac = max(FACC2, min(FACC1, fac / SAFE))
+        hnew = h / fac
+        if reject:
+            hnew = min(hnew, h)
+        reject = False
+        facold = max(err, FACOLD0)
+        n_acc += 1
+
+        # ------------------------------------------------ event detection
+        have_event = False
+        if ne > 0:
+            events(t_new, ynew, p, z, gnew)
+            have_event = find_crossings(gnew, sgn, crossed)
+
+        if not have_event:
+            if i_out < n_eval and t_eval[i_out] <= t_new:
+                if t_eval[i_out] < t_new:
+                    _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
+                    nfev += 3
+                i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+            t = t_new
+            y, ynew = ynew, y
+            for i in range(n):          # FSAL
+                K[0, i] = K[12, i]
+            if ne > 0:
+                gcur, gnew = gnew, gcur
+                set_unknown_signs(gcur, sgn)
+            h = hnew
+            continue
+
+        # ------------------------------------------------ event location
+        _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
+        nfev += 3
+        tol = ROOT_RTOL * max(1.0, abs(t_new))
+        t_star = t_new
+        for k in range(ne):
+            if crossed[k]:
+                troot[k] = locate_event(events, interp, k, sgn[k], t, h, t_new, gcur[k],
+                                        gnew[k], cont, yint, gtmp, p, z, tol)
+                if troot[k] < t_star:
+                    t_star = troot[k]
+
+        if t_star > t:
+            dense_ok = True
+            h_d = h
+            if t_star < t_new:
+                # retake the step so the state at t_star is a true 8th-order solution
+                interp((t_star - t) / h, cont, yint)
+                h_s = t_star - t
+                _stages(rhs, t, h_s, t_star, y, K, ytmp, ynew, p, z)
+                nfev += 12
+                ok = True
+                for j in range(n):
+                    if not math.isfinite(ynew[j]):
+                        ok = False
+                        break
+                if ok:
+                    h_d = h_s
+                    dense_ok = False     # cont belongs to the long step
+                else:
+                    for j in range(n):   # fall back on the interpolant of the original step
+                        ynew[j] = yint[j]
+            if not dense_ok and i_out < n_eval and t_eval[i_out] < t_star:
+                _dense(rhs, t, h_d, y, ynew, K, ytmp, cont, p, z)
+                nfev += 3
+            i_out = write_outputs(interp, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
+            t = t_star
+            y, ynew = ynew, y
+
+        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
+                                 ev_k, ev_dir, n_ev, max_log)
+        # z may have changed: FSAL is invalid, recompute K[0] and g at the event point
+        rhs(t, y, p, z, K[0])
+        nfev += 1
+        events(t, y, p, z, gcur)
+        set_unknown_signs(gcur, sgn)
+        if stop:
+            status = 1
+            break
+        h = hnew
+
+    stats[0] = n_steps
+    stats[1] = n_acc
+    stats[2] = n_rej
+    stats[3] = nfev
+    stats[4] = n_ev
+    return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+
+
+@njit(cache=True)
+def dop853_fixed(rhs, t0, y0, h, n_steps, p, z):
+    """n_steps fixed DOP853 steps of size h (8th-order solution, no control, no events)."""
+    n = y0.shape[0]
+    y = y0.copy()
+    ynew = np.empty(n)
+    ytmp = np.empty(n)
+    K = np.empty((16, n))
+    rhs(t0, y, p, z, K[0])
+    for s in range(n_steps):
+        t = t0 + s * h
+        t_new = t0 + (s + 1) * h
+        _stages(rhs, t, t_new - t, t_new, y, K, ytmp, ynew, p, z)
+        y, ynew = ynew, y
+        for i in range(n):
+            K[0, i] = K[12, i]
+    return y

@@ -1,0 +1,621 @@
+"""Stiff integrator: Hairer & Wanner's RODAS (Rodas4), a 6-stage L-stable, stiffly accurate
+Rosenbrock method of order 4 with an embedded order-3 error estimate and a 3rd-order dense output,
+in numba, with the interface, events and statuses of :mod:`nld.integrators.dopri5`.
+
+Method: coefficients (``METH = 1`` of ``ROCOE``), stage formulation (the transformed variables
+``ak_i`` of the code, so each stage costs one rhs evaluation and one back-substitution with the
+single LU factor of ``I/(h*gamma) - J``), error estimate (the last stage increment), continuous
+extension and step-size control (``fac = clip(err^(1/4)/0.9, 1/6, 5)`` with Gustafsson's
+predictive controller) follow Hairer's Fortran code ``rodas.f`` (E. Hairer, G. Wanner, *Solving
+Ordinary Differential Equations II*, 2nd ed., Springer 1996, sec. IV.7). See
+``docs/integrators.md``.
+
+The Jacobian is computed inside numba by forward differences of the user's ``rhs``, column by
+column, with increments ``sqrt(eps) * max(|y_j|, atol_j / rtol)`` (scaled to the state's error
+scale); the problem is treated as non-autonomous, with ``df/dt`` by a forward difference too.
+One Jacobian (n + 2 rhs evaluations) per accepted point; a rejected step re-uses it with a new LU.
+
+Interface (identical to ``dopri5``)::
+
+    status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z = rodas(
+        rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+        max_steps, n_events, max_log)
+
+``stats = [steps, accepted, rejected, rhs evaluations, events, jacobians, LU decompositions]``
+(length 7; rhs evaluations include those spent on finite differences). An additional status
+``SINGULAR = -5``: the iteration matrix was singular 5 times in a row (the step is halved first).
+Events: as dopri5 (located on the dense output, step retaken from t with the same Jacobian and a
+new LU to land on the event).
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .dop853 import (fire_events, find_crossings, initial_step, locate_event, set_unknown_signs,
+                     write_outputs)
+from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events
+
+SINGULAR = -5          # iteration matrix repeatedly singular
+MAX_SINGULAR = 5
+SQRT_EPS = math.sqrt(EPS)
+
+# ---------------------------------------------------------------- Rodas4 (rodas.f, ROCOE METH=1)
+C2 = 0.386
+C3 = 0.21
+C4 = 0.63
+D1 = 0.2500000000000000e+00
+D2 = -0.1043000000000000e+00
+D3 = 0.1035000000000000e+00
+D4 = -0.3620000000000023e-01
+A21 = 0.1544000000000000e+01
+A31 = 0.9466785280815826e+00
+A32 = 0.2557011698983284e+00
+A41 = 0.3314825187068521e+01
+A42 = 0.2896124015972201e+01
+A43 = 0.9986419139977817e+00
+A51 = 0.1221224509226641e+01
+A52 = 0.6019134481288629e+01
+A53 = 0.1253708332932087e+02
+A54 = -0.6878860361058950e+00
+C21 = -0.5668800000000000e+01
+C31 = -0.2430093356833875e+01
+C32 = -0.2063599157091915e+00
+C41 = -0.1073529058151375e+00
+C42 = -0.9594562251023355e+01
+C43 = -0.2047028614809616e+02
+C51 = 0.7496443313967647e+01
+C52 = -0.1024680431464352e+02
+C53 = -0.3399990352819905e+02
+C54 = 0.1170890893206160e+02
+C61 = 0.8083246795921522e+01
+C62 = -0.7981132988064893e+01
+C63 = -0.3152159432874371e+02
+C64 = 0.1631930543123136e+02
+C65 = -0.6058818238834054e+01
+GAMMA = 0.2500000000000000e+00
+D21 = 0.1012623508344586e+02
+D22 = -0.7487995877610167e+01
+D23 = -0.3480091861555747e+02
+D24 = -0.7992771707568823e+01
+D25 = 0.1025137723295662e+01
+D31 = -0.6762803392801253e+00
+D32 = 0.6087714651680015e+01
+D33 = 0.1643084320892478e+02
+D34 = 0.2476722511418386e+02
+D35 = -0.6594389125716872e+01
+
+# ---------------------------------------------------------------- step-size control (rodas.f)
+SAFE = 0.9
+FAC1 = 5.0           # fac = h/hnew is kept in [FAC2, FAC1]: 0.2 <= hnew/h <= 6 (rodas.f names)
+FAC2 = 1.0 / 6.0
+
+
+# ================================================================ linear algebra (small, dense)
+@njit(cache=True)
+def lu_factor(a, piv):
+    """In-place LU with partial pivoting (full row swaps); False if a pivot is 0 or non-finite."""
+    n = a.shape[0]
+    for k in range(n):
+        ip = k
+        amax = abs(a[k, k])
+        for i in range(k + 1, n):
+            v = abs(a[i, k])
+            if v > amax:
+                amax = v
+                ip = i
+        piv[k] = ip
+        if not (amax > 0.0) or not math.isfinite(amax):
+            return False
+        if ip != k:
+            for j in range(n):
+                tmp = a[k, j]
+                a[k, j] = a[ip, j]
+                a[ip, j] = tmp
+        inv = 1.0 / a[k, k]
+        for i in range(k + 1, n):
+            f = a[i, k] * inv
+            a[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+    return True
+
+
+@njit(cache=True)
+def lu_solve(a, piv, b):
+    """Solve with the factors of ``lu_factor``; b is overwritten by the solution."""
+    n = a.shape[0]
+    for k in range(n):
+        ip = piv[k]
+        if ip != k:
+            tmp = b[k]
+            b[k] = b[ip]
+            b[ip] = tmp
+    for i in range(n):
+        acc = b[i]
+        for j in range(i):
+            acc -= a[i, j] * b[j]
+        b[i] = acc
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= a[i, j] * b[j]
+        b[i] = acc / a[i, i]
+
+
+# ================================================================ Rodas kernels
+@njit(cache=True, inline='always')
+def _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne):
+    """Whether every event function that is nonzero at the base point keeps its sign at (t, ytmp)."""
+    if ne == 0:
+        return True
+    events(t, ytmp, p, z, gtmp)
+    for k in range(ne):
+        if gbase[k] * gtmp[k] < 0.0:
+            return False
+    return True
+
+
+@njit(cache=True, inline='always')
+def fd_jacobian(rhs, events, t, y, f0, p, z, typ, hscale, J, fx, ytmp, ftmp, gbase, gtmp, ne):
+    """J = df/dy (column-wise forward differences, increment sqrt(eps)*max(|y_j|, typ_j)) and
+    fx = df/dt (increment sqrt(eps)*max(|t|, hscale)) at (t, y) with f0 = f(t, y).
+
+    gbase = the n_events event functions at (t, y). An increment that would put an event function
+    on the other side of its zero (a contact onset, a load switch: a kink or jump of f) is taken
+    backwards instead, so the difference quotient never straddles the discontinuity.
+    Returns whether J and fx are finite (n + 1 rhs evaluations)."""
+    n = y.shape[0]
+    for j in range(n):
+        ytmp[j] = y[j]
+    finite = True
+    for j in range(n):
+        yj = y[j]
+        d = SQRT_EPS * max(abs(yj), typ[j])
+        if not (d > 0.0):
+            d = SQRT_EPS
+        ytmp[j] = yj + d
+        if not _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne):
+            ytmp[j] = yj - d
+        d = ytmp[j] - yj            # the increment actually represented (signed)
+        rhs(t, ytmp, p, z, ftmp)
+        for i in range(n):
+            v = (ftmp[i] - f0[i]) / d
+            J[i, j] = v
+            if not math.isfinite(v):
+                finite = False
+        ytmp[j] = yj
+    dt = SQRT_EPS * max(abs(t), hscale)
+    if not (dt > 0.0):
+        dt = SQRT_EPS
+    tt = t + dt
+    if not _same_sides(events, tt, y, p, z, gbase, gtmp, ne):
+        tt = t - dt
+    dt = tt - t
+    rhs(tt, y, p, z, ftmp)
+    for i in range(n):
+        v = (ftmp[i] - f0[i]) / dt
+        fx[i] = v
+        if not math.isfinite(v):
+            finite = False
+    return finite
+
+
+@njit(cache=True)
+def _build_matrix(J, fac, E):
+    """E = fac*I - J."""
+    n = J.shape[0]
+    for i in range(n):
+        for j in range(n):
+            E[i, j] = -J[i, j]
+        E[i, i] += fac
+
+
+@njit(cache=True, inline='always')
+def _stages(rhs, t, h, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z):
+    """One Rodas4 step with the factored E = I/(h*gamma) - J: fills AK[0..5] and ynew
+    (5 rhs evaluations). AK[5] is the error estimate."""
+    n = y.shape[0]
+    hc21 = C21 / h
+    hc31 = C31 / h
+    hc32 = C32 / h
+    hc41 = C41 / h
+    hc42 = C42 / h
+    hc43 = C43 / h
+    hc51 = C51 / h
+    hc52 = C52 / h
+    hc53 = C53 / h
+    hc54 = C54 / h
+    hc61 = C61 / h
+    hc62 = C62 / h
+    hc63 = C63 / h
+    hc64 = C64 / h
+    hc65 = C65 / h
+    hd1 = h * D1
+    hd2 = h * D2
+    hd3 = h * D3
+    hd4 = h * D4
+    ak1 = AK[0]
+    ak2 = AK[1]
+    ak3 = AK[2]
+    ak4 = AK[3]
+    ak5 = AK[4]
+    ak6 = AK[5]
+    for i in range(n):
+        ak1[i] = f0[i] + hd1 * fx[i]
+    lu_solve(E, piv, ak1)
+    for i in range(n):
+        ytmp[i] = y[i] + A21 * ak1[i]
+    rhs(t + C2 * h, ytmp, p, z, dy)
+    for i in range(n):
+        ak2[i] = dy[i] + hd2 * fx[i] + hc21 * ak1[i]
+    lu_solve(E, piv, ak2)
+    for i in range(n):
+        ytmp[i] = y[i] + A31 * ak1[i] + A32 * ak2[i]
+    rhs(t + C3 * h, ytmp, p, z, dy)
+    for i in range(n):
+        ak3[i] = dy[i] + hd3 * fx[i] + hc31 * ak1[i] + hc32 * ak2[i]
+    lu_solve(E, piv, ak3)
+    for i in range(n):
+        ytmp[i] = y[i] + A41 * ak1[i] + A42 * ak2[i] + A43 * ak3[i]
+    rhs(t + C4 * h, ytmp, p, z, dy)
+    for i in range(n):
+        ak4[i] = dy[i] + hd4 * fx[i] + hc41 * ak1[i] + hc42 * ak2[i] + hc43 * ak3[i]
+    lu_solve(E, piv, ak4)
+    for i in range(n):
+        ytmp[i] = y[i] + A51 * ak1[i] + A52 * ak2[i] + A53 * ak3[i] + A54 * ak4[i]
+    rhs(t_new, ytmp, p, z, dy)
+    for i in range(n):
+        ak5[i] = dy[i] + hc51 * ak1[i] + hc52 * ak2[i] + hc53 * ak3[i] + hc54 * ak4[i]
+    lu_solve(E, piv, ak5)
+    # embedded solution (order 3)
+    for i in range(n):
+        ytmp[i] += ak5[i]
+    rhs(t_new, ytmp, p, z, dy)
+    for i in range(n):
+        ak6[i] = (dy[i] + hc61 * ak1[i] + hc62 * ak2[i] + hc63 * ak3[i] + hc64 * ak4[i]
+                  + hc65 * ak5[i])
+    lu_solve(E, piv, ak6)
+    # new solution (order 4)
+    for i in range(n):
+        ynew[i] = ytmp[i] + ak6[i]
+
+
+@njit(cache=True)
+def _error_norm(y, ynew, ak6, atol, rtol):
+    """RMS of ak6_i / (atol_i + rtol*max(|y_i|, |ynew_i|)); NaN if anything is non-finite."""
+    n = y.shape[0]
+    acc = 0.0
+    for i in range(n):
+        yn = ynew[i]
+        if not math.isfinite(yn):
+            return np.nan
+        sk = atol[i] + rtol * max(abs(y[i]), abs(yn))
+        q = ak6[i] / sk
+        acc += q * q
+    if n == 0:
+        return 0.0
+    err = math.sqrt(acc / n)
+    if not math.isfinite(err):
+        return np.nan
+    return err
+
+
+@njit(cache=True)
+def _dense(y, ynew, AK, cont):
+    """cont = [y, ynew, c2, c3] of the 3rd-order continuous extension (no rhs evaluation)."""
+    for i in range(y.shape[0]):
+        cont[0, i] = y[i]
+        cont[1, i] = ynew[i]
+        cont[2, i] = (D21 * AK[0, i] + D22 * AK[1, i] + D23 * AK[2, i] + D24 * AK[3, i]
+                      + D25 * AK[4, i])
+        cont[3, i] = (D31 * AK[0, i] + D32 * AK[1, i] + D33 * AK[2, i] + D34 * AK[3, i]
+                      + D35 * AK[4, i])
+
+
+@njit(cache=True)
+def interp(theta, cont, out):
+    """Dense output y(t + theta h) = (1-s) y0 + s (y1 + (1-s) (c2 + s c3)) (rodas.f CONTRO)."""
+    s1 = 1.0 - theta
+    for i in range(out.shape[0]):
+        out[i] = cont[0, i] * s1 + theta * (cont[1, i] + s1 * (cont[2, i] + theta * cont[3, i]))
+
+
+@njit(cache=True, inline='always')
+def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+          max_steps, n_events, max_log):
+    """Adaptive Rodas4 from t0 to t_eval[-1]; same arguments and results as dopri5.
+
+    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
+
+    status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
+    underflow, -3 non-finite values, -5 iteration matrix repeatedly singular.
+    stats = [steps, accepted, rejected, rhs evals, events, jacobians, LU decompositions].
+    """
+    n = y0.shape[0]
+    n_eval = t_eval.shape[0]
+    ne = n_events
+
+    for i in range(1, n_eval):
+        if t_eval[i] < t_eval[i - 1]:
+            raise ValueError("t_eval must be sorted ascending")
+    if n_eval > 0 and t_eval[0] < t0:
+        raise ValueError("t_eval must lie within [t0, t_end]")
+    if atol.shape[0] != n:
+        raise ValueError("atol must have one entry per state")
+
+    Y = np.full((n_eval, n), np.nan)
+    Zo = np.zeros((n_eval, z.shape[0]))
+    stats = np.zeros(7, dtype=np.int64)
+    ev_t = np.zeros(max_log, dtype=np.float64)
+    ev_k = np.zeros(max_log, dtype=np.int64)
+    ev_dir = np.zeros(max_log, dtype=np.int64)
+    n_ev = 0
+
+    y = np.empty(n)
+    ynew = np.empty(n)
+    ytmp = np.empty(n)
+    yint = np.empty(n)
+    f0 = np.empty(n)
+    fx = np.empty(n)
+    dy = np.empty(n)
+    AK = np.empty((6, n))
+    J = np.empty((n, n))
+    E = np.empty((n, n))
+    piv = np.zeros(n, dtype=np.int64)
+    cont = np.empty((4, n))
+    typ = np.empty(n)
+    gcur = np.empty(ne)
+    gnew = np.empty(ne)
+    gtmp = np.empty(ne)
+    sgn = np.zeros(ne, dtype=np.int64)
+    troot = np.empty(ne)
+    crossed = np.zeros(ne, dtype=np.bool_)
+
+    for i in range(n):
+        y[i] = y0[i]
+        typ[i] = atol[i] / rtol
+    t = t0
+    i_out = 0
+    while i_out < n_eval and t_eval[i_out] <= t0:
+        for j in range(n):
+            Y[i_out, j] = y0[j]
+        Zo[i_out, :] = z
+        i_out += 1
+    if i_out >= n_eval:
+        return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+    t_end = t_eval[n_eval - 1]
+
+    n_steps = 0
+    n_acc = 0
+    n_rej = 0
+    nfev = 0
+    njac = 0
+    nlu = 0
+
+    rhs(t, y, p, z, f0)
+    nfev += 1
+    if ne > 0:
+        events(t, y, p, z, gcur)
+        set_unknown_signs(gcur, sgn)
+
+    span = t_end - t0
+    hcap = span
+    if hmax > 0.0 and hmax < hcap:
+        hcap = hmax
+    if h0 > 0.0:
+        h = min(h0, hcap)
+    else:
+        h = initial_step(rhs, t0, y, f0, p, z, atol, rtol, hcap, span, ytmp, dy, 4.0)
+        nfev += 1
+    if not (h > 0.0) or not math.isfinite(h):
+        h = 1e-6 * span
+
+    reject = False
+    need_f0 = False      # f0 = f(t, y) is current
+    need_jac = True
+    n_nonfinite = 0
+    n_sing = 0
+    hacc = 0.0
+    erracc = 1.0
+    status = 0
+
+    while True:
+        if t >= t_end:
+            status = 0
+            break
+        if n_steps >= max_steps:
+            status = -1
+            break
+        target = t_eval[i_out] if land else t_end
+        if h > hcap:
+            h = hcap
+        if h < 4.0 * EPS * abs(t):
+            h = 4.0 * EPS * abs(t)
+        if t + 1.01 * h >= target:
+            t_new = target
+        else:
+            t_new = t + h
+        h = t_new - t
+
+        if need_jac:
+            if need_f0:
+                rhs(t, y, p, z, f0)
+                nfev += 1
+                need_f0 = False
+            # gcur = events(t, y) is current here (start, accepted step, or event point)
+            ok = fd_jacobian(rhs, events, t, y, f0, p, z, typ, h, J, fx, ytmp, dy, gcur, gtmp, ne)
+            nfev += n + 1
+            njac += 1
+            need_jac = False
+            for i in range(n):
+                if not math.isfinite(f0[i]):
+                    ok = False
+            if not ok:
+                # non-finite derivatives at an accepted point: a smaller step cannot help
+                status = -3
+                break
+
+        n_steps += 1
+        _build_matrix(J, 1.0 / (h * GAMMA), E)
+        nlu += 1
+        if not lu_factor(E, piv):
+            n_sing += 1
+            n_rej += 1
+            reject = True
+            h = 0.5 * h
+            if n_sing >= MAX_SINGULAR:
+                status = -5
+                break
+            continue
+        n_sing = 0
+
+        _stages(rhs, t, h, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
+        nfev += 5
+        err = _error_norm(y, ynew, AK[5], atol, rtol)
+
+        if not math.isfinite(err):
+            n_rej += 1
+            n_nonfinite += 1
+            reject = True
+            h = 0.5 * h
+            if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+                status = -3
+                break
+            continue
+        n_nonfinite = 0
+
+        fac = max(FAC2, min(FAC1, err ** 0.25 / SAFE))
+        hnew = h / fac
+        if err > 1.0:
+            h = hnew
+            reject = True
+            n_rej += 1
+            if h < 16.0 * EPS * abs(t) or h < 1e-300:
+                status = -2
+                break
+            continue
+
+        # accepted; Gustafsson's predictive controller
+        n_acc += 1
+        if n_acc > 1:
+            facgus = (hacc / h) * (err * err / erracc) ** 0.25 / SAFE
+            facgus = max(FAC2, min(FAC1, facgus))
+            fac = max(fac, facgus)
+            hnew = h / fac
+        hacc = h
+        erracc = max(1.0e-2, err)
+        if reject:
+            hnew = min(hnew, h)
+        reject = False
+        need_jac = True
+        need_f0 = True
+
+        # ------------------------------------------------ event detection
+        have_event = False
+        if ne > 0:
+            events(t_new, ynew, p, z, gnew)
+            have_event = find_crossings(gnew, sgn, crossed)
+
+        if not have_event:
+            if i_out < n_eval and t_eval[i_out] <= t_new:
+                if t_eval[i_out] < t_new:
+                    _dense(y, ynew, AK, cont)
+                i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+            t = t_new
+            y, ynew = ynew, y
+            if ne > 0:
+                gcur, gnew = gnew, gcur
+                set_unknown_signs(gcur, sgn)
+            h = hnew
+            continue
+
+        # ------------------------------------------------ event location
+        _dense(y, ynew, AK, cont)
+        tol = ROOT_RTOL * max(1.0, abs(t_new))
+        t_star = t_new
+        for k in range(ne):
+            if crossed[k]:
+                troot[k] = locate_event(events, interp, k, sgn[k], t, h, t_new, gcur[k],
+                                        gnew[k], cont, yint, gtmp, p, z, tol)
+                if troot[k] < t_star:
+                    t_star = troot[k]
+
+        if t_star > t:
+            h_d = h
+            if t_star < t_new:
+                # retake the step (same Jacobian, new LU) so the state at t_star is a
+                # true 4th-order solution
+                interp((t_star - t) / h, cont, yint)
+                h_s = t_star - t
+                ok = False
+                _build_matrix(J, 1.0 / (h_s * GAMMA), E)
+                nlu += 1
+                if lu_factor(E, piv):
+                    _stages(rhs, t, h_s, t_star, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
+                    nfev += 5
+                    ok = True
+                    for j in range(n):
+                        if not math.isfinite(ynew[j]):
+                            ok = False
+                            break
+                if ok:
+                    h_d = h_s
+                    _dense(y, ynew, AK, cont)
+                else:
+                    for j in range(n):   # fall back on the interpolant of the original step
+                        ynew[j] = yint[j]
+            i_out = write_outputs(interp, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
+            t = t_star
+            y, ynew = ynew, y
+
+        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
+                                 ev_k, ev_dir, n_ev, max_log)
+        events(t, y, p, z, gcur)
+        set_unknown_signs(gcur, sgn)
+        if stop:
+            status = 1
+            break
+        h = hnew
+
+    stats[0] = n_steps
+    stats[1] = n_acc
+    stats[2] = n_rej
+    stats[3] = nfev
+    stats[4] = n_ev
+    stats[5] = njac
+    stats[6] = nlu
+    return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+
+
+@njit(cache=True)
+def rodas_fixed(rhs, t0, y0, h, n_steps, p, z, typ):
+    """n_steps fixed Rodas4 steps of size h (4th-order solution, finite-difference Jacobian at
+    every step, no control, no events). typ: the state scales of the Jacobian increments."""
+    n = y0.shape[0]
+    y = y0.copy()
+    ynew = np.empty(n)
+    ytmp = np.empty(n)
+    f0 = np.empty(n)
+    fx = np.empty(n)
+    dy = np.empty(n)
+    AK = np.empty((6, n))
+    J = np.empty((n, n))
+    E = np.empty((n, n))
+    piv = np.zeros(n, dtype=np.int64)
+    gnone = np.zeros(0)
+    for s in range(n_steps):
+        t = t0 + s * h
+        t_new = t0 + (s + 1) * h
+        hs = t_new - t
+        rhs(t, y, p, z, f0)
+        fd_jacobian(rhs, no_events, t, y, f0, p, z, typ, hs, J, fx, ytmp, dy, gnone, gnone, 0)
+        _build_matrix(J, 1.0 / (hs * GAMMA), E)
+        if not lu_factor(E, piv):
+            y[:] = np.nan
+            return y
+        _stages(rhs, t, hs, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
+        y, ynew = ynew, y
+    return y

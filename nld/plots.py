@@ -1,0 +1,214 @@
+"""Plots shared by the studies: Poincaré sections, bifurcation diagrams, exponent convergence and
+spectra. Every function returns a :class:`matplotlib.figure.Figure` (built without pyplot, so no
+display or backend is needed; save it with ``fig.savefig`` or ``PdfPages.savefig(fig)``) and
+labels its axes with units (SI, from the column names: :func:`unit_of`). Pass ``ax=`` to draw
+into an existing axes instead (its figure is returned).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["unit_of", "label_of", "poincare_scatter", "bifurcation_diagram",
+           "exponent_convergence", "spectrum_plot"]
+
+DIRECTION_COLOURS = {"up": "tab:blue", "down": "tab:orange"}
+
+_SUFFIX_UNITS = {
+    "x": "m", "y": "m", "theta": "rad", "vx": "m/s", "vy": "m/s", "omega": "rad/s",
+    "ax": "m/s²", "ay": "m/s²", "alpha": "rad/s²", "ex": "m", "ey": "m", "eccentricity": "m",
+    "penetration": "m", "penetration_rate": "m/s", "Fn": "N", "Ft": "N", "slip": "m/s",
+    "contact": "-", "angle": "rad", "speed": "rad/s", "torque": "N m", "kinetic": "J",
+    "potential": "J", "total": "J", "driver": "W", "loads": "W", "clearance": "m",
+    "journal_radius": "m", "mass": "kg", "inertia": "kg m²", "mu": "-", "restitution": "-",
+    "exponent": "-", "v0": "m/s", "v1": "m/s", "damping": "N s/m", "stiffness": "N/m^n",
+    "young": "Pa", "poisson": "-", "torque_slope": "N m s/rad", "angle0": "rad", "value": "",
+    "free_length": "m", "threshold": "rad", "min_approach_velocity": "m/s",
+    "tangential_damping": "N s/m",
+}
+
+
+def unit_of(name: str) -> str:
+    """SI unit of a table column or a scene key (``B.ex`` -> m, ``driver.speed`` -> rad/s,
+    ``joints.B.friction.mu`` -> -, ``t`` -> s); "" when unknown (e.g. an undotted ODE state name)."""
+    if name == "t":
+        return "s"
+    parts = str(name).split(".")
+    if len(parts) < 2:          # not a table column or scene key (an ODE state): unknown
+        return ""
+    if parts[0] == "scene" and len(parts) > 1 and parts[1] == "gravity":
+        return "m/s²"
+    for p in reversed(parts):
+        if p.isdigit():
+            continue
+        return _SUFFIX_UNITS.get(p, "")
+    return ""
+
+
+def label_of(name: str, unit: str | None = None) -> str:
+    """``"B.ex (m)"``."""
+    u = unit_of(name) if unit is None else unit
+    return f"{name} ({u})" if u else name
+
+
+def _figure(ax, figsize=(6.4, 4.8)):
+    if ax is not None:
+        return ax.figure, ax
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig, fig.add_subplot()
+
+
+def poincare_scatter(section, x: str | None = None, y: str | None = None, *, ax=None,
+                     title: str | None = None, s: float = 4.0, color=None, scale: float = 1.0,
+                     unit: str | None = None, label: str | None = None):
+    """Scatter of section points, ``y`` against ``x`` (default the first two observables).
+
+    section: a :class:`nld.poincare.Section` or a table with the observable columns.
+    scale, unit: plot x and y times ``scale`` with that unit in the labels (e.g. ``scale=1e3,
+    unit="mm"`` for journal eccentricities); default SI.
+    """
+    table = section.table if hasattr(section, "table") else section
+    obs = list(section.observables) if hasattr(section, "observables") else \
+        [c for c in table.columns if c not in ("rev", "crossing", "t", "value", "direction",
+                                               "index", "period", "lyapunov",
+                                               "lyapunov_uncertainty", "status", "message")]
+    x = x or obs[0]
+    y = y or (obs[1] if len(obs) > 1 else obs[0])
+    fig, ax = _figure(ax)
+    ax.scatter(table[x].to_numpy() * scale, table[y].to_numpy() * scale, s=s, c=color,
+               label=label, linewidths=0)
+    ax.set_xlabel(label_of(x, unit))
+    ax.set_ylabel(label_of(y, unit))
+    if x.endswith(".ex") and y.endswith(".ey"):
+        ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title(title if title is not None else f"Poincaré section ({len(table)} points)")
+    if label:
+        ax.legend()
+    return fig
+
+
+def bifurcation_diagram(table: pd.DataFrame, observable: str | None = None, *, param: str | None = None,
+                        ax=None, title: str | None = None, s: float = 1.5, scale: float = 1.0,
+                        unit: str | None = None, param_scale: float = 1.0,
+                        param_unit: str | None = None):
+    """Parameter value against the section points of one observable (a :func:`nld.bifurcation.sweep`
+    or ``load_sweep`` table), coloured by direction (up: blue, down: orange); failed points are
+    marked by red crosses on the lower axis. param: the swept key, for the label (default from
+    ``table.attrs["provenance"]``). scale/unit, param_scale/param_unit: plot scaling and units.
+    """
+    prov = table.attrs.get("provenance", {}) if hasattr(table, "attrs") else {}
+    param = param or prov.get("param") or "value"
+    if observable is None:
+        skip = {"value", "direction", "index", "rev", "period", "lyapunov",
+                "lyapunov_uncertainty", "status", "message"}
+        observable = next(c for c in table.columns if c not in skip)
+    fig, ax = _figure(ax)
+    ok = table[table["status"] == "ok"] if "status" in table.columns else table
+    dirs = ok["direction"].unique() if "direction" in ok.columns else [None]
+    for d in dirs:
+        part = ok[ok["direction"] == d] if d is not None else ok
+        ax.scatter(part["value"].to_numpy(dtype=float) * param_scale,
+                   part[observable].to_numpy(dtype=float) * scale, s=s, linewidths=0,
+                   color=DIRECTION_COLOURS.get(d, "k"), label=f"sweep {d}" if d else None)
+    if "status" in table.columns:
+        bad = table[table["status"] != "ok"].drop_duplicates(["direction", "index"])
+        if len(bad):
+            ax.plot(bad["value"].to_numpy(dtype=float) * param_scale, np.zeros(len(bad)), "x",
+                    color="tab:red", transform=ax.get_xaxis_transform(), clip_on=False,
+                    label=f"failed ({len(bad)})")
+    ax.set_xlabel(label_of(param, param_unit))
+    ax.set_ylabel(label_of(observable, unit))
+    ax.set_title(title if title is not None else f"Bifurcation diagram: {observable} vs {param}")
+    if len(dirs) > 1 or ("status" in table.columns and (table["status"] != "ok").any()):
+        ax.legend(markerscale=4)
+    return fig
+
+
+def exponent_convergence(result=None, *, times=None, history=None, uncertainty=None,
+                         units: str = "1/s", per_revolution: bool = False, period: float | None = None,
+                         ax=None, title: str | None = None, labels=None):
+    """Running Lyapunov estimate(s) against averaging time, with the final estimate +- its
+    uncertainty as a band.
+
+    result: a ``nld.lyapunov`` LyapunovResult / SpectrumResult (``times``, ``history``,
+    ``uncertainty``, ``units``, ``period``); or give times (s), history (n,) or (n, k) and
+    uncertainty. per_revolution: x in revolutions and exponents per revolution (needs a period).
+    """
+    if result is not None:
+        times = result.times if times is None else times
+        history = result.history if history is None else history
+        uncertainty = result.uncertainty if uncertainty is None else uncertainty
+        units = getattr(result, "units", units)
+        period = getattr(result, "period", period) if period is None else period
+    t = np.asarray(times, dtype=float)
+    H = np.asarray(history, dtype=float)
+    if H.ndim == 1:
+        H = H[:, None]
+    U = np.broadcast_to(np.asarray(uncertainty if uncertainty is not None else 0.0, dtype=float),
+                        (H.shape[1],))
+    xlabel, ylabel = f"averaging time ({'s' if units.endswith('/s') else units.split('/')[-1] or 's'})", \
+        f"Lyapunov exponent ({units})"
+    if per_revolution:
+        if not period:
+            raise ValueError("per_revolution needs a period")
+        t, H, U = t / period, H * period, U * period
+        xlabel, ylabel = "averaging time (revolutions)", "Lyapunov exponent (1/revolution)"
+    fig, ax = _figure(ax)
+    for k in range(H.shape[1]):
+        lab = (labels[k] if labels is not None else (f"λ{k + 1}" if H.shape[1] > 1 else "λ1"))
+        line, = ax.plot(t, H[:, k], lw=1.2, label=lab)
+        fin = H[-1, k]
+        ax.axhspan(fin - U[k], fin + U[k], color=line.get_color(), alpha=0.2, lw=0)
+        ax.axhline(fin, color=line.get_color(), lw=0.6, ls="--")
+    ax.axhline(0.0, color="0.5", lw=0.6)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title if title is not None else "Convergence of the Lyapunov exponent"
+                 + ("s" if H.shape[1] > 1 else "") + " (band: final ± uncertainty)")
+    ax.legend()
+    return fig
+
+
+def spectrum_plot(spec: pd.DataFrame, *, ax=None, title: str | None = None, log: bool = True,
+                  max_order: float | None = 20.0, orders=None, peaks: pd.DataFrame | None = None,
+                  unit: str | None = None):
+    """Power spectral density against frequency (Hz), crank harmonics marked.
+
+    spec: a :func:`nld.spectrum.spectrum` table (crank frequency in ``attrs``). Harmonic orders
+    1, 2, ... up to ``max_order`` (or the given ``orders``) are dotted vertical lines and a top axis
+    reads in orders; the x range stops at max_order (None: Nyquist). peaks: a
+    :func:`nld.spectrum.peaks` table, marked with dots. unit: the signal's unit (default from
+    ``attrs["observable"]``), so the density is in unit²/Hz.
+    """
+    a = spec.attrs
+    fc = a.get("crank_frequency")
+    obs = a.get("observable")
+    u = unit if unit is not None else (unit_of(obs) if obs else "")
+    f = spec["freq_hz"].to_numpy()
+    p = spec["power"].to_numpy()
+    fig, ax = _figure(ax)
+    sel = f > 0 if log else np.ones_like(f, dtype=bool)
+    ax.plot(f[sel], p[sel], lw=0.9, color="k")
+    if log:
+        ax.set_yscale("log")
+    fmax = f[-1]
+    if fc and max_order is not None:
+        fmax = min(fmax, max_order * fc)
+    ax.set_xlim(0.0, fmax)
+    if fc:
+        ords = orders if orders is not None else range(1, int(math.floor(fmax / fc)) + 1)
+        for k in ords:
+            ax.axvline(k * fc, color="tab:blue", lw=0.6, ls=":", alpha=0.8)
+        top = ax.secondary_xaxis("top", functions=(lambda x: x / fc, lambda o: o * fc))
+        top.set_xlabel(f"order of the crank frequency ({fc:.4g} Hz)")
+    if peaks is not None and len(peaks):
+        ax.plot(peaks["freq_hz"], peaks["power"], "o", ms=4, color="tab:red", label="peaks")
+        ax.legend()
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel(f"power spectral density ({u}²/Hz)" if u else "power spectral density (1/Hz)")
+    desc = f"{a.get('method', '')}, {a.get('window', '')} window, Δf = {a.get('resolution_hz', float('nan')):.3g} Hz"
+    ax.set_title(title if title is not None else f"Spectrum{' of ' + obs if obs else ''} ({desc})")
+    return fig

@@ -1,0 +1,618 @@
+"""Poincaré sections: stroboscopic maps, hyperplane sections and period detection.
+
+* :func:`stroboscopic` -- the state sampled at exact multiples of the crank period T = 2 pi/|omega|
+  of a speed-driven crank (or of the forcing period of a forced ODE), after a transient given in
+  revolutions. The integrator *lands* on every sampling time (``simulate(..., land=True)``), so a
+  section point carries only the integration error, no interpolation error.
+* :func:`hyperplane_section` -- crossings of a hypersurface g = level in a chosen direction: the
+  crank angle = theta0 (mod 2 pi) of a torque-driven crank, or any observable (table column of a
+  scene, state of an ODE) crossing a level. Crossings are bracketed on a fine output grid and then
+  located by root-finding (see the function for the accuracy of each mode).
+* :func:`period_of` -- period-n detection of a sequence of section points.
+
+Scenes are given as a :class:`~nld.scene_model.Scene`, a built-in name or a TOML path plus
+``overrides`` (as ``nld --set``); any other ODE as a :class:`nld.systems.ContinuousSystem` (a numba
+``rhs(t, y, p, z, dy)`` integrated by ``nld.integrators.dopri5``), see :func:`stroboscopic_rhs`.
+Units: times in s, every observable in the SI unit of its table column (docs/analysis.md).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+
+__all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
+           "default_observables", "add_arguments", "cli_poincare"]
+
+TWO_PI = 2.0 * math.pi
+DEFAULT_PERIOD_TOL = 1e-6
+DEFAULT_N_MAX = 16
+DEFAULT_SAMPLES_PER_REV = 360
+
+
+@dataclass
+class Section:
+    """Points of a Poincaré section and the state at the end of the run.
+
+    table:   one row per section point: ``rev`` (stroboscopic: revolution / forcing-period count
+             since t = 0) or ``crossing`` (hyperplane: crossing count), ``t`` (s) and the
+             observables (SI units of the table columns).
+    y_final, z_final, t_final: continuous and discrete state at the end of the run (for a
+             stroboscopic section: at the last section point, a multiple of the period, so a
+             next run started from it at t0 = 0 continues the same trajectory).
+    status, message: as ``nld.simulate`` (status < 0: the integration failed; the table holds the
+             points reached).
+    period:  sampling period T (s) of a stroboscopic section, None for a hyperplane section.
+    """
+    table: pd.DataFrame
+    observables: list[str]
+    y_final: np.ndarray
+    z_final: np.ndarray
+    t_final: float
+    status: int
+    message: str
+    period: float | None = None
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        return self.status >= 0
+
+    @property
+    def points(self) -> np.ndarray:
+        """The observables as an (n_points, n_observables) array."""
+        return self.table[self.observables].to_numpy(dtype=float)
+
+    def period_of(self, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MAX) -> int:
+        """Period of the section points (see :func:`period_of`)."""
+        return period_of(self.points, tol=tol, n_max=n_max)
+
+
+# ---------------------------------------------------------------------------------------------------
+# helpers
+
+
+def _is_system(obj) -> bool:
+    return hasattr(obj, "is_map") and hasattr(obj, "solve") and hasattr(obj, "y0")
+
+
+def _load(scene, overrides):
+    """Scene from a Scene/name/path plus overrides (as nld.simulate does)."""
+    from .scene import load_scene
+    from .scene_model import Scene
+    if isinstance(scene, Scene):
+        if overrides:
+            from .scene import apply_overrides, scene_from_dict, scene_to_dict
+            raw = scene_to_dict(scene)
+            apply_overrides(raw, overrides)
+            return scene_from_dict(raw, scene.source)
+        return scene
+    return load_scene(scene, overrides)
+
+
+def default_observables(kernel) -> list[str]:
+    """The journal eccentricity components ``<J>.ex, <J>.ey`` (m) of the first clearance joint;
+    without clearance joints, angle and rate of the first moving body that is not the crank."""
+    clear = kernel.topo.clearance
+    if clear:
+        return [f"{clear[0]}.ex", f"{clear[0]}.ey"]
+    crank = None
+    sc = kernel.scene
+    if sc.driver is not None:
+        j = sc.joints[sc.driver.joint]
+        crank = j.bodies[0] if j.bodies[0] != "ground" else j.bodies[1]
+    for b in sc.bodies:
+        if b != crank:
+            return [f"{b}.theta", f"{b}.omega"]
+    return ["driver.angle", "driver.speed"]
+
+
+def _check_observables(observables, available, what="column") -> list[str]:
+    if isinstance(observables, str):
+        observables = [o.strip() for o in observables.split(",") if o.strip()]
+    observables = list(observables)
+    if not observables:
+        raise InputError("observables: give at least one")
+    bad = [o for o in observables if o not in available]
+    if bad:
+        raise InputError(f"observable {bad[0]!r}: no such {what}; available: {', '.join(available)}")
+    return observables
+
+
+def _check_count(name, v, minimum):
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
+        raise InputError(f"{name} = {v!r}: must be an integer >= {minimum}")
+    return int(v)
+
+
+def _system_observables(system):
+    return ["t"] + list(system.state_names)
+
+
+# ---------------------------------------------------------------------------------------------------
+# stroboscopic map
+
+
+def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observables=None,
+                 overrides=None, rtol: float = 1e-8, y0=None, z0=None, kernel=None,
+                 max_steps: int = 50_000_000) -> Section:
+    """Stroboscopic Poincaré map: observables at t = k T, k = transient_revs .. transient_revs+revs-1.
+
+    scene: Scene, built-in name or TOML path (``overrides`` as ``nld --set``) of a mechanism with
+    a speed-driven crank, T = 2 pi / |driver.speed|; or a :class:`nld.systems.ContinuousSystem`
+    with a forcing ``period`` (T), whose observables are its state names (and ``t``).
+    transient_revs: whole periods integrated and discarded first; revs: number of section points.
+    observables: table columns (``B.ex``, ``B.ey``, ``rod.theta``, ``rod.omega`` ...; default
+    :func:`default_observables`). rtol: relative tolerance (absolute: rtol x clearance-based state
+    scales, as ``simulate``). y0, z0: start state at t = 0 (e.g. ``y_final``/``z_final`` of a
+    previous section: continuation).
+
+    Accuracy: the integrator lands exactly on every sampling time, so the points carry the
+    integration error only (for the Flores slider-crank ~1e-3 of the clearance at rtol 1e-8,
+    see docs/analysis.md); there is no interpolation.
+    """
+    transient_revs = _check_count("transient_revs", transient_revs, 0)
+    revs = _check_count("revs", revs, 1)
+    if _is_system(scene):
+        return _stroboscopic_system(scene, transient_revs, revs, observables, rtol, y0, z0,
+                                    max_steps)
+    from .kernel import compile_scene
+    from .simulate import crank_period, simulate
+    sc = _load(scene, overrides)
+    if sc.driver is None or sc.driver.mode != "speed":
+        raise InputError(f"scene {sc.name!r}: a stroboscopic section needs a speed-driven crank "
+                         "(driver.mode = \"speed\"); use hyperplane_section for a torque-driven "
+                         "crank (crank angle = theta0 mod 2 pi)")
+    T = crank_period(sc)
+    kern = kernel if kernel is not None else compile_scene(sc)
+    obs = _check_observables(observables if observables is not None else default_observables(kern),
+                             ["t"] + list(kern.columns))
+    k = np.arange(transient_revs, transient_revs + revs)
+    t_eval = k * T
+    t_end = float(t_eval[-1]) if t_eval[-1] > 0 else T * 1e-9   # a one-point section at t = 0
+    start = time.perf_counter()
+    res = simulate(sc, t_eval=t_eval, t_end=t_end, land=True, rtol=rtol, y0=y0, z0=z0,
+                   kernel=kern, max_steps=max_steps)
+    n = len(res.table)
+    table = pd.DataFrame({"rev": k[:n].astype(np.int64), "t": res.table["t"].to_numpy()})
+    for o in obs:
+        if o != "t":
+            table[o] = res.table[o].to_numpy()
+    prov = dict(res.provenance)
+    prov.update(kind="stroboscopic", transient_revs=transient_revs, revs=revs, period=T,
+                observables=obs, rtol=rtol, status=res.status, message=res.message,
+                wall=time.perf_counter() - start, continued=y0 is not None,
+                overrides=dict(overrides) if isinstance(overrides, dict) else list(overrides or []))
+    return Section(table, obs, np.asarray(res.y_final, float).copy(),
+                   np.asarray(res.z_final, float).copy(), float(res.t_reached), int(res.status),
+                   res.message, T, prov)
+
+
+def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0, max_steps):
+    from .integrators.dopri5 import status_message
+    if system.is_map:
+        raise InputError(f"{system.name} is a map: iterate it, a stroboscopic section is for flows")
+    if system.period is None:
+        raise InputError(f"{system.name}: a stroboscopic section needs a forcing period "
+                         "(ContinuousSystem(period=...))")
+    T = system.period
+    names = _system_observables(system)
+    obs = _check_observables(observables if observables is not None else list(system.state_names),
+                             names, "state")
+    y = np.ascontiguousarray(system.y0 if y0 is None else y0, dtype=float).copy()
+    z = np.array(system.z0 if z0 is None else z0, dtype=float)
+    if y.shape != (system.n,):
+        raise InputError(f"y0 = {y0!r}: need {system.n} values")
+    k = np.arange(transient_revs, transient_revs + revs)
+    t_eval = np.ascontiguousarray(k * T, dtype=float)
+    atol = np.ascontiguousarray(rtol * system.scales, dtype=float)
+    start = time.perf_counter()
+    out = system.solve(0.0, y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
+                       float(system.hmax), int(max_steps), int(system.n_events), 1000)
+    status, t_reached, Y, n_out, st = out[0], out[1], out[2], int(out[3]), out[4]
+    Zrows = out[9]
+    table = pd.DataFrame({"rev": k[:n_out].astype(np.int64), "t": t_eval[:n_out]})
+    for o in obs:
+        if o != "t":
+            table[o] = Y[:n_out, system.state_names.index(o)]
+    msg = status_message(status, t_reached, st)
+    y_final = Y[n_out - 1].copy() if n_out else y
+    z_final = np.array(Zrows[n_out - 1], dtype=float) if n_out else z
+    prov = _system_provenance(system, kind="stroboscopic", transient_revs=transient_revs,
+                              revs=revs, period=T, observables=obs, rtol=rtol, status=int(status),
+                              message=msg, wall=time.perf_counter() - start)
+    return Section(table, obs, y_final, z_final, float(t_reached), int(status), msg, T, prov)
+
+
+def _system_provenance(system, **extra) -> dict:
+    from . import __version__
+    from .provenance import git_hash
+    d = {"nld_version": __version__, "git_hash": git_hash(), "system": system.name,
+         "parameters": system.p.tolist(), "integrator": "dopri5"}
+    d.update(extra)
+    return d
+
+
+def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = 100, revs: int = 100,
+                     rtol: float = 1e-10, state_names=None, scales=None, name: str = "ode",
+                     observables=None, max_steps: int = 50_000_000, solve=None) -> Section:
+    """Stroboscopic map of any T-periodic ODE given as a numba ``rhs(t, y, p, z, dy)``.
+
+    The ODE is wrapped in :class:`nld.systems.ContinuousSystem` (DOPRI5 of
+    ``nld.integrators.dopri5`` with ``no_events``/``no_on_event``). A user rhs compiles the
+    integrator once per process (5-20 s) unless ``solve`` is given: a ``@njit(cache=True)``
+    wrapper ``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
+    max_log)`` returning ``dopri5(rhs, no_events, no_on_event, ...)`` with rhs a module global,
+    which numba loads from its disk cache (see nld/integrators/dopri5.py). Example, the forced
+    Duffing oscillator::
+
+        from nld.systems import duffing_rhs
+        sec = stroboscopic_rhs(duffing_rhs, [1, 0], [0.3, -1, 1, 0.2, 1.2], 2*pi/1.2,
+                               transient_revs=200, revs=50)
+
+    (``nld.systems.duffing(...)`` gives the same system with a disk-cached integrator.)
+    """
+    from .systems import ContinuousSystem
+    system = ContinuousSystem(rhs, y0, p, name, state_names, scales, period, solve=solve)
+    return stroboscopic(system, transient_revs=transient_revs, revs=revs, observables=observables,
+                        rtol=rtol, max_steps=max_steps)
+
+
+# ---------------------------------------------------------------------------------------------------
+# hyperplane sections
+
+
+class _Flow:
+    """What a hyperplane section needs of a scene or an ODE: solve, observe, rhs, state."""
+
+    def __init__(self, system, columns, observe_rows, observe_one):
+        self.system = system
+        self.columns = columns            # observable names
+        self.observe_rows = observe_rows  # (t_eval, Y, Z, n) -> (n, ncols)
+        self.observe_one = observe_one    # (t, y, z) -> (ncols,)
+
+
+def _scene_flow(scene, overrides, kernel):
+    from .kernel import compile_scene
+    from .systems import SceneSystem
+    sc = _load(scene, overrides)
+    kern = kernel if kernel is not None else compile_scene(sc)
+    system = SceneSystem(sc, kernel=kern)
+    mod, p = kern.module, system.p
+    cols = ["t"] + list(kern.columns)
+    ncols = len(kern.columns)
+
+    def rows(t_eval, Y, Z, n):
+        out = np.empty((n, ncols))
+        mod.observe_all(t_eval, Y, Z, n, p, out)
+        return np.column_stack([t_eval[:n], out])
+
+    def one(t, y, z):
+        row = np.empty(ncols)
+        mod.observe(float(t), np.ascontiguousarray(y), p, np.array(z, dtype=float), row)
+        return np.concatenate([[t], row])
+    return _Flow(system, cols, rows, one), sc
+
+
+def _system_flow(system):
+    cols = _system_observables(system)
+
+    def rows(t_eval, Y, Z, n):
+        return np.column_stack([t_eval[:n], Y[:n]])
+
+    def one(t, y, z):
+        return np.concatenate([[t], y])
+    return _Flow(system, cols, rows, one)
+
+
+def hyperplane_section(scene, *, observable: str = "driver.angle", level: float | None = None,
+                       direction: int = 1, modulo: float | None = None, transient_revs: float = 0.0,
+                       revs: float | None = None, t_transient: float | None = None,
+                       t_end: float | None = None, observables=None, overrides=None,
+                       rtol: float = 1e-8, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
+                       dt: float | None = None, y0=None, z0=None, refine: bool = True,
+                       kernel=None, max_steps: int = 50_000_000) -> Section:
+    """Poincaré section at the crossings of ``observable`` through ``level`` in ``direction``.
+
+    scene: Scene / name / TOML path (+ ``overrides``), or a ContinuousSystem (observables: its
+    state names). observable: a table column (default ``driver.angle``, the crank angle; with
+    ``modulo`` = 2 pi, the default for ``driver.angle``, the section is angle = level mod 2 pi and
+    ``level`` defaults to driver.angle0). direction: +1 increasing, -1 decreasing, 0 both.
+    Time span: the transient ``transient_revs`` nominal crank periods (2 pi/|driver.speed| of the
+    initial speed; or ``t_transient`` s), then ``revs`` periods (or up to ``t_end`` s).
+    observables: columns recorded at each crossing (default: those of :func:`stroboscopic`).
+
+    Location: the run is output on a grid of ``samples_per_rev`` points per period (or step
+    ``dt`` s) from the dense output of DOPRI5 (4th order, error ~ the tolerance); a sign change of
+    g = observable - level (the branch level + 2 pi m for an angle) between two grid points
+    brackets a crossing (a crossing pair inside one grid step is missed: keep the grid finer than
+    the fastest return). Then
+
+    * ``refine=True`` (default): the bracket is re-integrated from the stored state at its left
+      end with the integrator landing exactly on each trial time, and Brent's method finds the
+      root to |dt| <= 1e-13 t: the section point is then as accurate as the integration itself
+      (|g| at the point ~1e-12 of the observable's scale).
+    * ``refine=False``: the state is interpolated by a cubic Hermite polynomial between grid
+      points (states and rhs derivatives at both ends) and the root found on it: error
+      O(h^4 |y''''|), h the grid step; about 1e-9 relative for 360 points per revolution of a smooth
+      observable, worse across an impact (an impact inside the bracket breaks the smoothness).
+    """
+    from scipy.optimize import brentq
+    from .integrators.dopri5 import status_message
+    if direction not in (-1, 0, 1):
+        raise InputError(f"direction = {direction!r}: must be +1, -1 or 0")
+    if _is_system(scene):
+        if scene.is_map:
+            raise InputError(f"{scene.name} is a map: its iterates are already a section")
+        flow = _system_flow(scene)
+        sc = None
+        period = scene.period
+        default_obs = list(scene.state_names)
+    else:
+        flow, sc = _scene_flow(scene, overrides, kernel)
+        from .simulate import crank_period
+        try:
+            period = crank_period(sc)
+        except InputError:
+            period = None
+        default_obs = default_observables(flow.system.kernel)
+    system = flow.system
+    if observable not in flow.columns:
+        raise InputError(f"observable {observable!r}: not available; available: {', '.join(flow.columns)}")
+    obs = _check_observables(observables if observables is not None else default_obs, flow.columns)
+    if modulo is None and observable == "driver.angle":
+        modulo = TWO_PI
+    if level is None:
+        level = (sc.driver.angle0 if (sc is not None and sc.driver is not None
+                                      and observable == "driver.angle") else 0.0)
+    level = float(level)
+    if modulo is not None and not (math.isfinite(modulo) and modulo > 0):
+        raise InputError(f"modulo = {modulo!r}: must be a positive number or None")
+    # time span
+    if t_transient is None:
+        if transient_revs and period is None:
+            raise InputError("no period known: give t_transient (s) instead of transient_revs")
+        t_transient = float(transient_revs) * (period or 0.0)
+    if t_end is None:
+        if revs is None or period is None:
+            raise InputError("give t_end (s), or revs with a scene/system that has a period")
+        t_end = t_transient + float(revs) * period
+    if not (math.isfinite(t_end) and t_end > t_transient >= 0):
+        raise InputError(f"t_end = {t_end!r}: must be after the transient {t_transient!r} s")
+    if dt is None:
+        if period is None:
+            raise InputError("no period known: give dt (s), the output grid step")
+        samples_per_rev = _check_count("samples_per_rev", samples_per_rev, 4)
+        dt = period / samples_per_rev
+    n_grid = int(math.ceil((t_end - t_transient) / dt)) + 1
+    grid = np.ascontiguousarray(np.linspace(t_transient, t_end, n_grid))
+    y = np.ascontiguousarray(system.y0 if y0 is None else y0, dtype=float).copy()
+    z = np.array(system.z0 if z0 is None else z0, dtype=float)
+    atol = np.ascontiguousarray(rtol * system.scales, dtype=float)
+    hmax = float(system.hmax)
+    start = time.perf_counter()
+    out = system.solve(0.0, y, grid, False, system.p, z.copy(), float(rtol), atol, 0.0, hmax,
+                       int(max_steps), int(system.n_events), 1000)
+    status, t_reached, Y, n_out, st, Z = out[0], out[1], out[2], int(out[3]), out[4], out[9]
+    msg = status_message(status, t_reached, st)
+    rows = flow.observe_rows(grid, Y, Z, n_out)
+    gi = flow.columns.index(observable)
+    oi = [flow.columns.index(o) for o in obs]
+    g = rows[:, gi] - level
+    if modulo is not None:
+        branch = np.floor(g / modulo)
+    else:
+        branch = np.where(g >= 0.0, 0.0, -1.0)
+    idx = np.nonzero(branch[1:] != branch[:-1])[0]
+    mod = modulo if modulo is not None else 0.0
+
+    def sub_level(i):
+        # the branch crossed in [i, i+1]: level + modulo * max(branch) (increasing or decreasing)
+        return mod * max(branch[i], branch[i + 1]) if modulo is not None else 0.0
+
+    points, times = [], []
+    rhs = system.rhs
+    for i in idx:
+        up = branch[i + 1] > branch[i]
+        if direction == 1 and not up or direction == -1 and up:
+            continue
+        off = sub_level(i)
+        t0, t1 = grid[i], grid[i + 1]
+        g0, g1 = g[i] - off, g[i + 1] - off
+        if g0 == 0.0:
+            tc, yc, zc = t0, Y[i].copy(), Z[i].copy()
+        elif refine:
+            cache = {}
+
+            def G(t, i=i, off=off, cache=cache):
+                yt, zt = _land(system, Y[i], Z[i], grid[i], t, rtol, atol, hmax, max_steps)
+                cache[t] = (yt, zt)
+                return flow.observe_one(t, yt, zt)[gi] - level - off
+            try:
+                tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+            except (ValueError, RuntimeError):      # a failed re-integration
+                continue
+            yc, zc = cache[tc] if tc in cache else _land(system, Y[i], Z[i], t0, tc, rtol, atol,
+                                                       hmax, max_steps)
+        else:
+            f0, f1 = np.empty(system.n), np.empty(system.n)
+            rhs(t0, Y[i], system.p, Z[i].copy(), f0)
+            rhs(t1, Y[i + 1], system.p, Z[i + 1].copy(), f1)
+            h = t1 - t0
+
+            def herm(t, i=i, f0=f0, f1=f1, h=h):
+                s = (t - grid[i]) / h
+                h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+                h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+                return h00 * Y[i] + h10 * h * f0 + h01 * Y[i + 1] + h11 * h * f1
+
+            def G(t, i=i, off=off, herm=herm):
+                return flow.observe_one(t, herm(t), Z[i])[gi] - level - off
+            try:
+                tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+            except ValueError:      # the Hermite interpolant does not change sign: midpoint guess
+                continue
+            yc, zc = herm(tc), Z[i].copy()
+        row = flow.observe_one(tc, yc, zc)
+        times.append(tc)
+        points.append(row[oi])
+    table = pd.DataFrame({"crossing": np.arange(len(times), dtype=np.int64),
+                          "t": np.array(times, dtype=float)})
+    P = np.array(points, dtype=float).reshape(len(times), len(oi))
+    for j, o in enumerate(obs):
+        if o != "t":
+            table[o] = P[:, j]
+    y_final = Y[n_out - 1].copy() if n_out else y
+    z_final = np.array(Z[n_out - 1], dtype=float) if n_out else z
+    base = _system_provenance(system) if sc is None else _scene_provenance(sc)
+    base.update(kind="hyperplane", observable=observable, level=level, direction=direction,
+                modulo=modulo, t_transient=t_transient, t_end=t_end, grid_step=dt, refine=refine,
+                rtol=rtol, observables=obs, status=int(status), message=msg,
+                wall=time.perf_counter() - start)
+    return Section(table, obs, y_final, z_final, float(t_reached), int(status), msg, None, base)
+
+
+def _scene_provenance(sc) -> dict:
+    from .simulate import provenance
+    return provenance(sc)
+
+
+def _land(system, y, z, t0, t1, rtol, atol, hmax, max_steps):
+    """State at t1 from (t0, y, z): DOPRI5 landing exactly on t1 (raises RuntimeError on failure)."""
+    if t1 <= t0:
+        return np.array(y, dtype=float), np.array(z, dtype=float)
+    zz = np.array(z, dtype=float)
+    out = system.solve(float(t0), np.ascontiguousarray(y, dtype=float), np.array([float(t1)]), True,
+                       system.p, zz, float(rtol), atol, 0.0, hmax, int(max_steps),
+                       int(system.n_events), 1)
+    if out[0] < 0 or out[3] < 1:
+        raise RuntimeError("re-integration failed")
+    return out[2][0].copy(), zz
+
+
+# ---------------------------------------------------------------------------------------------------
+# period detection
+
+
+def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MAX, *,
+              scale=None, window: int | None = None) -> int:
+    """Smallest period n <= n_max of a sequence of section points, 0 for none (aperiodic).
+
+    points: (N, d) array or a DataFrame (its numeric columns other than rev/crossing/t), oldest
+    first, transient already dropped. Each coordinate is divided by its scale (default
+    max(range, rms) of that coordinate over the points; a coordinate whose scale is 0 is
+    constant and ignored; or give ``scale``, one value per coordinate). Period n holds when
+    max |p[i+n] - p[i]| / scale <= tol for every i in the last ``window`` points (default all)
+    and at least n such pairs exist (every phase repeats at least once), so N >= 2n is needed.
+    """
+    if isinstance(points, pd.DataFrame):
+        cols = [c for c in points.columns if c not in ("rev", "crossing", "t")
+                and pd.api.types.is_numeric_dtype(points[c])]
+        P = points[cols].to_numpy(dtype=float)
+    else:
+        P = np.asarray(points, dtype=float)
+    if P.ndim == 1:
+        P = P[:, None]
+    if window is not None:
+        P = P[-int(window):]
+    if len(P) < 2 or not np.all(np.isfinite(P)):
+        return 0
+    if scale is None:
+        s = np.maximum(np.ptp(P, axis=0), np.sqrt(np.mean(P * P, axis=0)))
+    else:
+        s = np.broadcast_to(np.asarray(scale, dtype=float), (P.shape[1],)).copy()
+    keep = s > 0
+    if not np.any(keep):
+        return 1
+    Q = P[:, keep] / s[keep]
+    N = len(Q)
+    for n in range(1, min(int(n_max), N // 2) + 1):
+        if np.max(np.abs(Q[n:] - Q[:-n])) <= tol:
+            return n
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------------
+# command line (registered by nld.cli: see docs/analysis.md)
+
+
+def add_arguments(subparsers):
+    """Add ``nld poincare`` to the sub-commands of nld's parser; returns the sub-parser."""
+    from .cli import _number_arg, _rtol_arg
+    sp = subparsers.add_parser(
+        "poincare", help="Poincaré section of a scene (stroboscopic or crank-angle)",
+        description="Poincaré section: the observables at every crank revolution after a transient "
+                    "(stroboscopic, speed-driven crank) or at each crossing of crank angle = "
+                    "THETA0 mod 2 pi (--angle, e.g. a torque-driven crank); prints the points and "
+                    "the detected period.")
+    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
+    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
+    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=100,
+                    metavar="N", help="crank revolutions discarded first (default 100)")
+    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=100, metavar="N",
+                    help="section points / revolutions after the transient (default 100)")
+    sp.add_argument("--observables", default=None, metavar="COLS",
+                    help="comma-separated table columns (default: <first clearance joint>.ex,.ey)")
+    sp.add_argument("--rtol", type=_rtol_arg, default=1e-8, metavar="R",
+                    help="relative tolerance (default 1e-08)")
+    sp.add_argument("--angle", type=_number_arg("--angle", positive=False), default=None,
+                    metavar="THETA0", help="crank-angle section at THETA0 (rad) mod 2 pi instead "
+                                           "of the stroboscopic one")
+    sp.add_argument("--period-tol", type=_number_arg("--period-tol"), default=DEFAULT_PERIOD_TOL,
+                    metavar="TOL", help=f"relative tolerance of the period detection "
+                                        f"(default {DEFAULT_PERIOD_TOL:g})")
+    sp.add_argument("--out", metavar="FILE", help="write the points to FILE.csv or FILE.parquet "
+                                                 "(provenance in FILE.json / parquet metadata)")
+    sp.set_defaults(func=cli_poincare)
+    return sp
+
+
+def _count_arg(name: str, minimum: int):
+    import argparse
+
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not an integer") from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be >= {minimum}")
+        return v
+    conv.__name__ = name
+    return conv
+
+
+def cli_poincare(args) -> int:
+    """``nld poincare``: print (or write) the section points and the detected period."""
+    from .io import check_table_path, save_table
+    out = check_table_path(args.out) if args.out else None
+    if args.angle is None:
+        sec = stroboscopic(args.scene, transient_revs=args.transient_revs, revs=args.revs,
+                           observables=args.observables, overrides=args.overrides, rtol=args.rtol)
+    else:
+        sec = hyperplane_section(args.scene, observable="driver.angle", level=args.angle,
+                                 transient_revs=args.transient_revs, revs=args.revs,
+                                 observables=args.observables, overrides=args.overrides,
+                                 rtol=args.rtol)
+    n = period_of(sec.points, tol=args.period_tol)
+    prov = dict(sec.provenance)
+    prov.update(period_detected=n, period_tol=args.period_tol,
+                command=getattr(args, "command_line", None))
+    if out is not None:
+        path = save_table(sec.table, out, prov)
+        print(f"wrote {len(sec.table)} section points to {path}")
+    else:
+        print(sec.table.to_string(index=False, float_format=lambda v: f"{v:.9g}"))
+    print(f"period: {n if n else 'none found (aperiodic or longer than 16)'} "
+          f"(tolerance {args.period_tol:g}); {sec.message}")
+    if not sec.success:
+        import sys
+        print(f"nld: error: integration failed: {sec.message}", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,445 @@
+"""Multi-page PDF reports of studies (matplotlib ``PdfPages``), with their provenance.
+
+    from nld.report import Report, save_study_data
+
+    with Report("reports/x.pdf", "My study", scene="excavator", provenance=prov,
+                settings={"rtol": 1e-7, "revolutions": "1 transient + 3 plotted"}) as rep:
+        rep.text_page("Summary", ["First paragraph.", "- a bullet", "- another"])
+        fig, axes = rep.subplots(1, 2, title="Rod angular velocity")
+        ...                                   # plot, label axes with units
+        rep.figure(fig, caption="What the figure shows.")
+        rep.table("Peak values", df, col_units={"omega": "rad/s"})
+    save_study_data({"case1": df1, "case2": df2}, "reports/x.parquet", prov)
+
+Layout: every page is A4 landscape (:data:`PAGE_SIZE`); the first page(s) are the title page with
+the scene name, every scene parameter with its unit (:func:`nld.scene.format_scene`), the method,
+tolerances and other settings, the nld version, the git hash, the date and the wall time. Every
+page has a footer with the report title, ``page i of N`` and the version/git hash. Pages are kept
+in memory and written when the ``with`` block ends (the title page needs the total wall time and
+the page count), to a temporary file renamed into place, so that a failed study leaves no partial
+PDF behind.
+
+Reproducibility: when the environment variable ``SOURCE_DATE_EPOCH`` is set, the date printed on
+the title page is that time (UTC), matplotlib writes it as the PDF ``CreationDate``, and the wall
+time is left out (the title page says so); two runs on the same data and source tree then give
+byte-identical files. PDF metadata: Title, Author ``nld``, Subject, Keywords (with the git hash),
+Creator.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["PAGE_SIZE", "STYLE", "Report", "save_study_data", "source_date_epoch"]
+
+PAGE_SIZE = (11.69, 8.27)          # A4 landscape, inches
+# readable in print at A4: 9-10 pt text, visible lines; TrueType fonts so that the text is searchable
+STYLE = {
+    "font.size": 9.5,
+    "axes.titlesize": 10.5,
+    "axes.labelsize": 9.5,
+    "xtick.labelsize": 8.5,
+    "ytick.labelsize": 8.5,
+    "legend.fontsize": 8.5,
+    "lines.linewidth": 1.1,
+    "axes.grid": True,
+    "grid.alpha": 0.35,
+    "grid.linewidth": 0.5,
+    "figure.titlesize": 12,
+    "pdf.fonttype": 42,
+    "ps.fonttype": 42,
+}
+_FOOTER_H = 0.045                  # figure fraction kept free for the footer
+_TOP = 0.955                       # figure fraction below the page heading
+_MARGIN = 0.045
+
+
+def source_date_epoch() -> int | None:
+    """``SOURCE_DATE_EPOCH`` as an int, or None when unset or empty (ValueError if not an integer)."""
+    v = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if not v:
+        return None
+    try:
+        return int(v)
+    except ValueError:
+        raise ValueError(f"SOURCE_DATE_EPOCH = {v!r}: must be an integer (seconds since 1970)") from None
+
+
+def _fmt_cell(v, float_format) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        if not np.isfinite(v):
+            return "–" if np.isnan(v) else str(v)
+        if callable(float_format):
+            return float_format(float(v))
+        return float_format.format(float(v))
+    return str(v)
+
+
+def _new_figure(title: str | None = None):
+    import matplotlib
+    from matplotlib.figure import Figure
+    with matplotlib.rc_context(STYLE):
+        fig = Figure(figsize=PAGE_SIZE)
+        if title:
+            fig.suptitle(title, fontsize=13, fontweight="bold", x=_MARGIN, y=0.975, ha="left")
+    return fig
+
+
+class Report:
+    """A PDF report built page by page; use as a context manager (see the module docstring).
+
+    path: the PDF file (parent directories are created). title: report title (title page, footer,
+    PDF Title). scene: a Scene or a scene name/path (for the parameter listing), optional.
+    provenance: dict as made by :func:`nld.simulate.provenance` (its ``integrator``, ``rtol`` and
+    ``scene`` are shown when present), optional. settings: ``{label: value}`` shown on the title
+    page (method, tolerances, revolutions, ...), optional. subtitle: a line under the title (e.g.
+    "QUICK MODE"), shown in red when ``highlight_subtitle``. subject, keywords: PDF metadata.
+    wall_time (s): shown on the title page; by default the time from the construction of the
+    Report to the end of the ``with`` block. Set the attribute before the block ends to override.
+    """
+
+    def __init__(self, path, title: str, scene=None, provenance: dict | None = None,
+                 settings: dict | None = None, *, subtitle: str | None = None,
+                 highlight_subtitle: bool = False, subject: str | None = None,
+                 keywords: list[str] | None = None, wall_time: float | None = None):
+        from .scene import load_scene
+        self.path = Path(path)
+        self.title = str(title)
+        if isinstance(scene, (str, os.PathLike)):
+            scene = load_scene(scene)
+        self.scene = scene
+        self.provenance = dict(provenance or {})
+        self.settings = dict(settings or {})
+        self.subtitle = subtitle
+        self.highlight_subtitle = highlight_subtitle
+        self.subject = subject
+        self.keywords = list(keywords or [])
+        self.wall_time = wall_time
+        self._start = time.perf_counter()
+        self._pages: list = []          # Figures, in order (title pages are added at close)
+        self._open = False
+
+    # ------------------------------------------------------------------ context manager
+    def __enter__(self) -> "Report":
+        self._open = True
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        try:
+            if exc_type is None:
+                self.close()
+        finally:
+            self._pages.clear()
+            self._open = False
+        return False
+
+    # ------------------------------------------------------------------ pages
+    def subplots(self, nrows: int = 1, ncols: int = 1, title: str | None = None, **kw):
+        """``(fig, axes)``: a page-sized Figure in the report style (``axes`` as from plt.subplots)."""
+        import matplotlib
+        fig = _new_figure(title)
+        with matplotlib.rc_context(STYLE):
+            axes = fig.subplots(nrows, ncols, squeeze=kw.pop("squeeze", True), **kw)
+        return fig, axes
+
+    def figure(self, fig, caption: str | None = None) -> None:
+        """Add a matplotlib Figure as one page (resized to the page; tight layout unless it has a
+        layout engine already); ``caption``: text printed under the plots."""
+        fig.set_size_inches(*PAGE_SIZE)
+        bottom = _FOOTER_H + 0.01
+        if caption:
+            lines = self._wrap([caption], width=175)
+            bottom += 0.022 * len(lines) + 0.01
+            fig.text(_MARGIN, _FOOTER_H + 0.012, "\n".join(lines), fontsize=8.5, va="bottom", ha="left",
+                     linespacing=1.3)
+        top = _TOP - 0.005 if fig.get_suptitle() else 0.985
+        if fig.get_layout_engine() is None:
+            import warnings
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)       # tight_layout's "not compatible"
+                fig.tight_layout(rect=(0.01, bottom, 0.99, top))
+        self._pages.append(fig)
+
+    def text_page(self, title: str, paragraphs) -> None:
+        """Pages of running text. ``paragraphs``: a string or a list of them; a paragraph starting
+        with ``- `` is a bullet item; continuation pages are added when the text is long."""
+        if isinstance(paragraphs, str):
+            paragraphs = [paragraphs]
+        lines = self._wrap(paragraphs, width=145)
+        per_page = 30
+        chunks = [lines[i:i + per_page] for i in range(0, len(lines), per_page)] or [[]]
+        for k, chunk in enumerate(chunks):
+            fig = _new_figure(title if k == 0 else f"{title} (continued)")
+            fig.text(_MARGIN, _TOP - 0.03, "\n".join(chunk), fontsize=10.5, va="top", ha="left",
+                     linespacing=1.3)
+            self._pages.append(fig)
+
+    def table(self, title: str, data, col_units: dict | None = None, *, columns=None,
+              notes=None, float_format="{:.4g}", rows_per_page: int = 24,
+              col_widths=None) -> None:
+        """A table page (continued over pages when long).
+
+        data: a DataFrame, a list of dicts or a list of row sequences (then ``columns`` names them).
+        col_units: ``{column: unit}``, printed in the header as ``column [unit]``. notes: text
+        (string or list of paragraphs) under the table. Floats are printed with ``float_format``,
+        NaN/None as ``–`` (``float_format`` may also be a function of the float returning the text). col_widths: relative column widths (default from the content).
+        """
+        if isinstance(data, pd.DataFrame):
+            df = data
+        elif data and isinstance(data[0], dict):
+            df = pd.DataFrame(list(data))
+        else:
+            df = pd.DataFrame([list(r) for r in data], columns=columns)
+        units = col_units or {}
+        header = [f"{c}\n[{units[c]}]" if units.get(c) else str(c) for c in df.columns]
+        body = [[_fmt_cell(v, float_format) for v in row] for row in df.itertuples(index=False)]
+        if col_widths is None:
+            w = [max([len(s) for s in h.split("\n")] + [len(r[i]) for r in body]) + 2
+                 for i, h in enumerate(header)]
+        else:
+            w = list(col_widths)
+        tot = float(sum(w)) or 1.0
+        widths = [x / tot for x in w]
+        note_lines = self._wrap([notes] if isinstance(notes, str) else list(notes or []), width=160)
+        chunks = [body[i:i + rows_per_page] for i in range(0, len(body), rows_per_page)] or [[]]
+        for k, chunk in enumerate(chunks):
+            fig = _new_figure(title if k == 0 else f"{title} (continued)")
+            last = k == len(chunks) - 1
+            note_h = (0.021 * len(note_lines) + 0.02) if (last and note_lines) else 0.0
+            ax_bottom = _FOOTER_H + 0.02 + note_h
+            ax = fig.add_axes((_MARGIN, ax_bottom, 1 - 2 * _MARGIN, _TOP - 0.03 - ax_bottom))
+            ax.axis("off")
+            n = len(chunk) + 1
+            row_h = min(0.065, 1.0 / (n + 1.2))
+            tbl = ax.table(cellText=chunk if chunk else None, colLabels=header, colWidths=widths,
+                           cellLoc="center", colLoc="center", loc="upper center",
+                           bbox=(0.0, 1.0 - row_h * (n + 0.6), 1.0, row_h * (n + 0.6)))
+            tbl.auto_set_font_size(False)
+            tbl.set_fontsize(8.5)
+            for (r, c), cell in tbl.get_celld().items():
+                cell.set_linewidth(0.4)
+                if r == 0:
+                    cell.set_facecolor("#e6e6e6")
+                    cell.set_text_props(fontweight="bold")
+                    cell.set_height(cell.get_height() * 1.6)
+                elif r % 2 == 0:
+                    cell.set_facecolor("#f7f7f7")
+            if last and note_lines:
+                fig.text(_MARGIN, _FOOTER_H + 0.015, "\n".join(note_lines), fontsize=8.5, va="bottom",
+                         ha="left", linespacing=1.35)
+            self._pages.append(fig)
+
+    @staticmethod
+    def style():
+        """Context manager: the report's rcParams (:data:`STYLE`); make figures and plot inside it."""
+        import matplotlib
+        return matplotlib.rc_context(STYLE)
+
+    def title_page_count(self) -> int:
+        """Pages the title page takes (more than one when the scene parameters do not fit)."""
+        pages = self._title_pages(source_date_epoch())
+        for fig in pages:
+            _release(fig)
+        return len(pages)
+
+    @property
+    def page_count(self) -> int:
+        """Pages added so far (the title page(s) not included)."""
+        return len(self._pages)
+
+    # ------------------------------------------------------------------ writing
+    @staticmethod
+    def _wrap(paragraphs, width: int) -> list[str]:
+        out: list[str] = []
+        for i, p in enumerate(paragraphs):
+            p = str(p)
+            if i and not (p.startswith("- ") and str(paragraphs[i - 1]).startswith("- ")):
+                out.append("")
+            if p.startswith("- "):
+                out.extend(textwrap.wrap(p[2:], width=width - 3, initial_indent="•  ",
+                                         subsequent_indent="   ", break_on_hyphens=False) or ["•"])
+            else:
+                out.extend(textwrap.wrap(p, width=width, break_on_hyphens=False) or [""])
+        return out
+
+    def _info_lines(self, epoch: int | None) -> list[tuple[str, str]]:
+        from . import __version__
+        from .provenance import git_hash
+        prov = self.provenance
+        rows: list[tuple[str, str]] = []
+        if self.scene is not None:
+            src = f" ({Path(self.scene.source).name})" if getattr(self.scene, "source", "") else ""
+            rows.append(("Scene", f"{self.scene.name}{src}"))
+        elif prov.get("scene"):
+            rows.append(("Scene", str(prov["scene"])))
+        if prov.get("integrator"):
+            rows.append(("Method", str(prov["integrator"])))
+        if "rtol" in prov and "rtol" not in self.settings:
+            rows.append(("rtol", f"{prov['rtol']:g}"))
+        for k, v in self.settings.items():
+            rows.append((str(k), _fmt_cell(v, "{:g}")))
+        rows.append(("nld version", str(__version__)))
+        rows.append(("git", git_hash()))
+        if epoch is not None:
+            date = _dt.datetime.fromtimestamp(epoch, _dt.timezone.utc)
+            rows.append(("Date", date.strftime("%Y-%m-%d %H:%M UTC") + " (SOURCE_DATE_EPOCH)"))
+            rows.append(("Wall time", "not shown: SOURCE_DATE_EPOCH is set (reproducible output)"))
+        else:
+            date = _dt.datetime.now(_dt.timezone.utc)
+            rows.append(("Date", date.strftime("%Y-%m-%d %H:%M UTC")))
+            wall = self.wall_time if self.wall_time is not None else time.perf_counter() - self._start
+            rows.append(("Wall time", f"{wall:.1f} s"))
+        return rows
+
+    def _title_pages(self, epoch: int | None) -> list:
+        from .scene import format_scene
+        info = self._info_lines(epoch)
+        params = format_scene(self.scene).splitlines() if self.scene is not None else []
+        if params and params[0].startswith("#"):
+            params = params[1:]
+        params = [w for line in params
+                  for w in (textwrap.wrap(line, width=52, subsequent_indent="    ") or [""])]
+        # lines per column: first page below a title of up to two lines and a subtitle, then more
+        per_first, per_next, ncols_first, ncols_next = 46, 52, 2, 3
+        cols = []
+        rest = params
+        first = True
+        while rest:
+            n = per_first * ncols_first if first else per_next * ncols_next
+            cols.append(rest[:n])
+            rest = rest[n:]
+            first = False
+        if not cols:
+            cols = [[]]
+        pages = []
+        for k, chunk in enumerate(cols):
+            fig = _new_figure()
+            if k == 0:
+                title = textwrap.wrap(self.title, width=78) or [""]
+                fig.text(_MARGIN, 0.955, "\n".join(title), fontsize=16, fontweight="bold", va="top",
+                         ha="left", linespacing=1.2)
+                y = 0.955 - 0.042 * len(title) - 0.01
+                if self.subtitle:
+                    fig.text(_MARGIN, y, self.subtitle, fontsize=12.5, va="top", ha="left",
+                             color="#b00000" if self.highlight_subtitle else "black",
+                             fontweight="bold" if self.highlight_subtitle else "normal")
+                    y -= 0.045
+                top = y - 0.015
+                label_w = max(len(a) for a, _ in info)
+                text = []
+                for a, b in info:
+                    wrapped = textwrap.wrap(b, width=max(16, 46 - label_w)) or [""]
+                    text.append(f"{a:<{label_w}}  {wrapped[0]}")
+                    text.extend(" " * (label_w + 2) + s for s in wrapped[1:])
+                fig.text(_MARGIN, top - 0.04, "\n".join(text), fontsize=8.3, family="monospace",
+                         va="top", ha="left", linespacing=1.5)
+                fig.text(_MARGIN, top, "Run", fontsize=11, fontweight="bold", va="top", ha="left")
+                x0, ncol = 0.385, ncols_first
+                head = "Scene parameters (SI units)" if params else ""
+            else:
+                fig.text(_MARGIN, 0.955, f"{self.title}: scene parameters (continued)", fontsize=13,
+                         fontweight="bold", va="top", ha="left")
+                top = 0.89
+                x0, ncol = _MARGIN, ncols_next
+                head = ""
+            if head:
+                fig.text(x0, top, head, fontsize=11, fontweight="bold", va="top", ha="left")
+            width = (1 - _MARGIN - x0) / ncol
+            per_col = per_first if k == 0 else per_next
+            for c in range(ncol):
+                part = chunk[c * per_col:(c + 1) * per_col]
+                if part:
+                    fig.text(x0 + c * width, top - 0.04, "\n".join(part), fontsize=6.3,
+                             family="monospace", va="top", ha="left", linespacing=1.32)
+            pages.append(fig)
+        return pages
+
+    def _footer(self, fig, i: int, n: int) -> None:
+        from . import __version__
+        from .provenance import git_hash
+        y = 0.018
+        fig.text(_MARGIN, y, self.title, fontsize=7.5, ha="left", va="bottom", color="#444444")
+        fig.text(0.5, y, f"page {i} of {n}", fontsize=7.5, ha="center", va="bottom", color="#444444")
+        fig.text(1 - _MARGIN, y, f"nld {__version__} · git {git_hash()[:12]}", fontsize=7.5,
+                 ha="right", va="bottom", color="#444444")
+
+    def metadata(self) -> dict:
+        """The PDF document information dictionary written with the report."""
+        from . import __version__
+        from .provenance import git_hash
+        kw = ["nld", f"git {git_hash()}", f"nld {__version__}"]
+        scene = self.scene.name if self.scene is not None else self.provenance.get("scene")
+        if scene:
+            kw.append(f"scene {scene}")
+        kw += self.keywords
+        import matplotlib
+        return {"Title": self.title, "Author": "nld",
+                "Subject": self.subject or (f"nld study of scene {scene}" if scene else "nld report"),
+                "Keywords": "; ".join(kw),
+                "Creator": f"nld {__version__} (nld.report, matplotlib {matplotlib.__version__})"}
+
+    def close(self) -> Path:
+        """Write the PDF (title page(s) first); returns its path. Called by the ``with`` block."""
+        from matplotlib.backends.backend_pdf import PdfPages
+        epoch = source_date_epoch()
+        pages = self._title_pages(epoch) + self._pages
+        n = len(pages)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        import matplotlib
+        try:
+            with matplotlib.rc_context(STYLE), PdfPages(tmp, metadata=self.metadata()) as pdf:
+                for i, fig in enumerate(pages, start=1):
+                    self._footer(fig, i, n)
+                    pdf.savefig(fig)
+                    _release(fig)
+            os.replace(tmp, self.path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+        self.pages_written = n
+        self._pages.clear()
+        return self.path
+
+
+def _release(fig) -> None:
+    import sys
+    if "matplotlib.pyplot" in sys.modules:     # figures made with pyplot are registered there
+        sys.modules["matplotlib.pyplot"].close(fig)
+
+
+def save_study_data(data, path, provenance: dict | None) -> Path:
+    """Write a study's time series to ``path`` (``.parquet``; a ``.pdf`` path is changed to the
+    ``.parquet`` beside it) with :func:`nld.io.save_table` and its provenance.
+
+    data: a DataFrame, or ``{case: DataFrame}``; the frames of a dict are stacked (union of the
+    columns, missing values NaN) with a leading ``case`` column holding the key.
+    """
+    p = Path(path)
+    if p.suffix.lower() == ".pdf":
+        p = p.with_suffix(".parquet")
+    if isinstance(data, dict):
+        frames = []
+        for case, df in data.items():
+            df = df.copy()
+            if "case" in df.columns:
+                df = df.drop(columns="case")
+            df.insert(0, "case", str(case))
+            frames.append(df)
+        df = pd.concat(frames, ignore_index=True, sort=False) if frames else pd.DataFrame({"case": []})
+    else:
+        df = data
+    from .io import save_table
+    return save_table(df, p, provenance)

@@ -1,0 +1,212 @@
+"""Validation of the Lyapunov-exponent estimators (nld.lyapunov) on systems with known exponents
+(references.md section 5) and on the slider-crank scene. docs/lyapunov.md lists the values.
+
+Quick variants run by default; long ones are marked slow (pytest -m slow).
+"""
+import math
+import warnings
+
+import numpy as np
+import pytest
+from numba import njit
+
+from nld import systems as S
+from nld.errors import InputError
+from nld.lyapunov import (_cross_events, _import_nolds, lyapunov_benettin, lyapunov_nolds,
+                          lyapunov_spectrum)
+
+LN2 = math.log(2.0)
+HENON_L1 = 0.4192          # Henon (1.4, 0.3), largest exponent per iteration
+LORENZ = (0.9056, 0.0, -14.5723)   # Lorenz (10, 28, 8/3), per unit time; sum -41/3
+LORENZ_SUM = -(10.0 + 1.0 + 8.0 / 3.0)
+
+
+# ------------------------------------------------------------------ maps
+def test_logistic_r4_is_ln2():
+    m = S.logistic(4.0)
+    b = lyapunov_benettin(m)
+    q = lyapunov_spectrum(m)
+    assert abs(b.exponent - LN2) < 0.01
+    assert abs(q.exponent - LN2) < 0.01
+    assert b.units == "1/iteration" and b.per_revolution is None
+
+
+def test_henon_spectrum_and_sum():
+    m = S.henon(1.4, 0.3)
+    q = lyapunov_spectrum(m)                     # analytic Jacobian, QR every iteration
+    assert abs(q.exponents[0] - HENON_L1) < 0.01
+    assert abs(q.exponents[1] - (-1.6232)) < 0.01
+    assert abs(q.total - math.log(0.3)) < 1e-6   # det J = -b at every point
+    b = lyapunov_benettin(m)
+    assert abs(b.exponent - HENON_L1) < 0.01
+    assert abs(b.exponent - q.exponents[0]) < b.uncertainty + q.uncertainty[0]
+    # finite-difference Jacobian when the map has none
+    fd = S.DiscreteMap(S.henon_f, [0.0, 0.0], [1.4, 0.3], "henon-fd")
+    qf = lyapunov_spectrum(fd, total=20_000)
+    assert abs(qf.total - math.log(0.3)) < 1e-6
+    assert abs(qf.exponents[0] - HENON_L1) < 0.02
+
+
+# ------------------------------------------------------------------ flows
+@pytest.mark.parametrize("a, y0", [(-0.5, 1.0), (-0.5, 0.0), (0.3, 0.0)])
+def test_linear_flow_exponent_is_a(a, y0):
+    s = S.linear(a, y0=[y0])
+    b = lyapunov_benettin(s, total=50.0)
+    q = lyapunov_spectrum(s, total=50.0)
+    assert abs(b.exponent - a) < 1e-6
+    assert abs(q.exponent - a) < 1e-6
+
+
+def test_lorenz_benettin():
+    r = lyapunov_benettin(S.lorenz(), total=1000.0)
+    assert abs(r.exponent - LORENZ[0]) < 0.03
+    assert r.uncertainty < 0.03
+    assert r.history[-1] == pytest.approx(r.exponent)
+    assert r.times[-1] == pytest.approx(1000.0)
+    assert r.units == "1/s"
+
+
+def test_lorenz_spectrum_and_agreement():
+    s = S.lorenz()
+    q = lyapunov_spectrum(s, 3)                          # renorm every 0.1, 500 time units
+    assert abs(q.exponents[0] - LORENZ[0]) < 0.03
+    assert abs(q.exponents[1]) < 0.03                    # autonomous flow: a zero exponent
+    assert abs(q.exponents[2] - LORENZ[2]) < 0.05
+    assert abs(q.total - LORENZ_SUM) < 0.05              # trace of the Jacobian
+    b = lyapunov_benettin(s, total=1000.0, seed=3)
+    assert abs(b.exponent - q.exponents[0]) <= b.uncertainty + q.uncertainty[0]
+
+
+def test_duffing_forced_has_no_zero_exponent():
+    """Forced Duffing (time not a state): two exponents summing to -delta, the first positive."""
+    s = S.duffing()
+    q = lyapunov_spectrum(s, total=300 * s.period)
+    assert abs(q.total + 0.3) < 1e-4
+    assert q.exponents[0] - q.uncertainty[0] > 0.0
+    assert q.per_revolution[0] == pytest.approx(q.exponents[0] * s.period)
+
+
+def test_nolds_wrappers_units_and_determinism():
+    nolds = _import_nolds()
+    s = S.lorenz()
+    dt = 0.02
+    _, Y = S.trajectory(s, 1500, dt, transient=50.0)
+    x = Y[:, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)     # nolds' notes on lag / min_tsep
+        r1 = lyapunov_nolds(x, dt)
+        r2 = lyapunov_nolds(x, dt)
+        ref = nolds.lyap_r(x, emb_dim=10, trajectory_len=20, fit="poly", tau=dt)
+        e = lyapunov_nolds(x, dt, method="eckmann")
+    assert r1 == r2                                # fit="poly": deterministic
+    assert r1 == pytest.approx(ref, rel=1e-12)     # per second, as nolds with tau = dt
+    assert 0.3 < r1 < 2.0                          # comparison only: right order, positive
+    assert e[0] > 0.0                              # lyap_e: reliable in sign only
+    with pytest.raises(InputError):
+        lyapunov_nolds(x, dt, tau=dt)
+
+
+# ------------------------------------------------------------------ events and renormalisation
+@njit(cache=True)
+def _lin_rhs(t, y, p, z, dy):
+    dy[0] = 1.0
+
+
+@njit(cache=True)
+def _lin_events(t, y, p, z, g):
+    g[0] = y[0] - 1.0
+
+
+@njit(cache=True)
+def _lin_on_event(k, direction, t, y, p, z):
+    z[0] = direction
+    return 0
+
+
+def test_renormalisation_across_an_event_surface_reports_it():
+    s = S.ContinuousSystem(_lin_rhs, [0.0], name="ramp", z0=[0.0], events=_lin_events,
+                           on_event=_lin_on_event, n_events=1)
+    z = np.zeros(1)
+    _cross_events(s, 0.0, np.array([0.9]), np.array([1.1]), z)
+    assert z[0] == 1.0
+    _cross_events(s, 0.0, np.array([1.2]), np.array([1.1]), z)   # no crossing: unchanged
+    assert z[0] == 1.0
+    _cross_events(s, 0.0, np.array([1.1]), np.array([0.5]), z)
+    assert z[0] == -1.0
+
+
+def test_bad_input():
+    with pytest.raises(InputError):
+        lyapunov_spectrum(S.henon(), k=3)
+    with pytest.raises(InputError):
+        lyapunov_benettin(S.lorenz(), total=0.5)          # fewer than two intervals
+    with pytest.raises(InputError):
+        lyapunov_benettin(S.logistic(), renorm_interval=0.5)
+    with pytest.raises(InputError):
+        S.advance(S.henon(), [0.0, 0.0], np.zeros(0), 0.0, 1.0)
+    with pytest.raises(InputError):
+        S.ContinuousSystem(S.lorenz_rhs, [1.0, 1.0, 1.0], scales=[1.0, -1.0, 1.0])
+
+
+# ------------------------------------------------------------------ scenes
+CHAOTIC = None                       # default slider-crank: 5000 rpm, 0.5 mm clearance
+PERIODIC = ["driver.speed=50", "joints.B.contact.restitution=0.5"]   # 477 rpm, period-1
+
+
+def test_scene_system_wraps_the_kernel():
+    s = S.SceneSystem("slider_crank")
+    assert s.n == 4 and s.state_names == ["slider.s", "rod.phi", "slider.s_dot", "rod.phi_dot"]
+    assert s.period == pytest.approx(2 * math.pi / 523.5987755982989)
+    assert s.scales[0] == pytest.approx(0.5e-3)          # a slide: scaled by the clearance
+    assert s.n_events == 1 and s.z0.shape == (1,)
+    y, z = S.advance(s, s.y0, s.z0, 0.0, s.period)
+    assert np.all(np.isfinite(y))
+
+
+def test_scene_chaotic_quick():
+    """5000 rpm: both estimators positive over 40 revolutions (after 10)."""
+    s = S.SceneSystem("slider_crank", CHAOTIC)
+    P = s.period
+    b = lyapunov_benettin(s, transient=10 * P, total=40 * P)
+    q = lyapunov_spectrum(s, 2, transient=10 * P, total=40 * P)
+    assert b.exponent - b.uncertainty > 0.0
+    assert q.exponents[0] - q.uncertainty[0] > 0.0
+    assert b.per_revolution == pytest.approx(b.exponent * P)
+    assert b.settings["checks"] == 32 and b.settings["renorm_interval"] == pytest.approx(P)
+
+
+def test_scene_periodic_quick():
+    """477 rpm, restitution 0.5: a period-1 motion with impacts; lambda1 <= 0 within its
+    uncertainty, for both estimators."""
+    s = S.SceneSystem("slider_crank", PERIODIC)
+    P = s.period
+    b = lyapunov_benettin(s, transient=30 * P, total=20 * P)
+    q = lyapunov_spectrum(s, 2, transient=30 * P, total=20 * P)
+    assert b.exponent <= b.uncertainty
+    assert q.exponents[0] <= q.uncertainty[0]
+    assert np.sign(b.exponent) == np.sign(q.exponents[0])
+
+
+@pytest.mark.slow
+def test_scene_chaotic_long_agreement():
+    s = S.SceneSystem("slider_crank")
+    b = lyapunov_benettin(s)                            # 20 + 500 revolutions
+    q = lyapunov_spectrum(s, 2, total=200 * s.period)
+    assert b.exponent - b.uncertainty > 0.0
+    assert abs(b.exponent - q.exponents[0]) <= b.uncertainty + q.uncertainty[0]
+
+
+@pytest.mark.slow
+def test_scene_periodic_long():
+    s = S.SceneSystem("slider_crank", PERIODIC)
+    P = s.period
+    b = lyapunov_benettin(s, transient=50 * P, total=100 * P)
+    assert b.exponent + b.uncertainty < 0.0
+
+
+@pytest.mark.slow
+def test_user_system_without_cached_solver():
+    """A ContinuousSystem from a user rhs (DOPRI5 compiled from Python, not disk-cached)."""
+    s = S.ContinuousSystem(S.lorenz_rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "lorenz-user")
+    r = lyapunov_benettin(s, total=1000.0)
+    assert abs(r.exponent - LORENZ[0]) < 0.03
