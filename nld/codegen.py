@@ -151,7 +151,11 @@ class Emitter:
                     self.w(f"ux{k} = c{par}*{ax_} - s{par}*{ay_}; uy{k} = s{par}*{ax_} + c{par}*{ay_}")
                 self.w(f"Sx{k} = G{k}x + q{k}*ux{k}; Sy{k} = G{k}y + q{k}*uy{k}")
                 self.w(f"th{b} = {pth} + {self.P(f'joints.{e.joint}.angle_offset')}")
-                self.w(f"c{b} = np.cos(th{b}); s{b} = np.sin(th{b})")
+                if par == GROUND:   # a slider on a fixed guide never turns: no trigonometry per call
+                    self.w(f"c{b} = {self.P(f'joints.{e.joint}.angle_offset_cos')}; "
+                           f"s{b} = {self.P(f'joints.{e.joint}.angle_offset_sin')}")
+                else:
+                    self.w(f"c{b} = np.cos(th{b}); s{b} = np.sin(th{b})")
                 bx, by = self.point_param(b, e.child_point)
                 self.w(f"d{b}x = c{b}*{bx} - s{b}*{by}; d{b}y = s{b}*{bx} + c{b}*{by}")
                 self.w(f"x{b} = Sx{k} - d{b}x; y{b} = Sy{k} - d{b}y")

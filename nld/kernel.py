@@ -61,6 +61,15 @@ class Kernel:
         return q + [lab + "_dot" for lab in q]
 
 
+def _generator_digest() -> str:
+    """Hash of the code generator's own source, so a changed generator never reuses an old kernel."""
+    h = hashlib.sha1()
+    here = Path(__file__).resolve().parent
+    for f in ("codegen.py", "topology.py", "parameters.py", "kernel_support.py"):
+        h.update((here / f).read_bytes())
+    return h.hexdigest()[:12]
+
+
 def _import(path: Path, name: str):
     if name in _LOADED:
         return _LOADED[name]
@@ -81,8 +90,8 @@ def compile_scene(scene: Scene) -> Kernel:
     else:
         partition(topo, np.zeros((0, len(topo.coords))))
     layout = build_layout(scene)
-    key_src = json.dumps({"v": __version__, "s": structure_key(scene, topo), "p": layout.names},
-                         sort_keys=True, default=str)
+    key_src = json.dumps({"v": __version__, "g": _generator_digest(), "s": structure_key(scene, topo),
+                          "p": layout.names}, sort_keys=True, default=str)
     key = hashlib.sha1(key_src.encode()).hexdigest()[:16]
     name = f"nld_kernel_{scene.name}_{key}"
     path = cache_dir() / f"{name}.py"

@@ -91,9 +91,11 @@ class LyapunovResult:
         return None if self.period is None else self.uncertainty * self.period
 
     def __str__(self):
-        s = f"{self.method} {self.system}: lambda1 = {self.exponent:.6g} +- {self.uncertainty:.2g} {self.units}"
+        s = (f"{self.method} {self.system}: lambda1 = {self.exponent:.6g} +- "
+             f"{self.uncertainty:.2g} {self.units}")
         if self.per_revolution is not None:
-            s += f" = {self.per_revolution:.4g} +- {self.uncertainty_per_revolution:.2g} per revolution"
+            s += (f" = {self.per_revolution:.4g} +- {self.uncertainty_per_revolution:.2g}"
+                  " per revolution")
         return s
 
 
@@ -393,10 +395,10 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
         if not max_growth >= 1.0:
             raise InputError(f"max_growth = {max_growth!r}: must be >= 1")
         y, z = system.y0.copy(), system.z0.copy()
-        t_start = 0.0
+        t_start = system.t0
         if transient > 0:
-            y, z = advance(system, y, z, 0.0, transient, rtol)
-            t_start = transient
+            y, z = advance(system, y, z, t_start, t_start + transient, rtol)
+            t_start += transient
         sc = system.scales
         u = _random_unit(rng, system.n)
         yp, zp = y + d0 * sc * u, z.copy()
@@ -485,10 +487,10 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
         transient, n_int, T, d0, rtol = _flow_settings(system, transient, total,
                                                        renorm_interval, d0, rtol, True)
         y, z = system.y0.copy(), system.z0.copy()
-        t_start = 0.0
+        t_start = system.t0
         if transient > 0:
-            y, z = advance(system, y, z, 0.0, transient, rtol)
-            t_start = transient
+            y, z = advance(system, y, z, t_start, t_start + transient, rtol)
+            t_start += transient
         sc = system.scales
         Q = Q0
         yp = [y + d0 * sc * Q[:, j] for j in range(k)]

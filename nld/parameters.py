@@ -60,6 +60,8 @@ def build_layout(scene: Scene) -> ParamLayout:
         if j.type == "prismatic":
             L.add(f"joints.{j.name}.axis", 2)
             L.add(f"joints.{j.name}.angle_offset")
+            L.add(f"joints.{j.name}.angle_offset_cos")
+            L.add(f"joints.{j.name}.angle_offset_sin")
         if j.has_clearance:
             for k in ("clearance", "journal_radius", "contact.stiffness", "contact.exponent",
                       "contact.restitution", "contact.damping", "contact.min_approach_velocity",
@@ -111,6 +113,8 @@ def pack(scene: Scene, layout: ParamLayout) -> np.ndarray:
             off = (scene.bodies[b1].angle0 if b1 != "ground" else 0.0) - (
                 scene.bodies[b0].angle0 if b0 != "ground" else 0.0)
             put(f"joints.{j.name}.angle_offset", off)
+            put(f"joints.{j.name}.angle_offset_cos", math.cos(off))
+            put(f"joints.{j.name}.angle_offset_sin", math.sin(off))
         if j.has_clearance:
             pre = f"joints.{j.name}."
             put(pre + "clearance", j.clearance)

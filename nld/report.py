@@ -307,12 +307,12 @@ class Report:
         from .scene import format_scene
         info = self._info_lines(epoch)
         params = format_scene(self.scene).splitlines() if self.scene is not None else []
-        if params and params[0].startswith("#"):
-            params = params[1:]
+        # the scene's name and file are in the Run block already
+        params = [p for p in params if not p.startswith(("#", "scene.name =", "scene.source ="))]
         params = [w for line in params
                   for w in (textwrap.wrap(line, width=52, subsequent_indent="    ") or [""])]
         # lines per column: first page below a title of up to two lines and a subtitle, then more
-        per_first, per_next, ncols_first, ncols_next = 46, 52, 2, 3
+        per_first, per_next, ncols_first, ncols_next = 48, 52, 2, 3
         cols = []
         rest = params
         first = True
@@ -349,7 +349,7 @@ class Report:
                 x0, ncol = 0.385, ncols_first
                 head = "Scene parameters (SI units)" if params else ""
             else:
-                fig.text(_MARGIN, 0.955, f"{self.title}: scene parameters (continued)", fontsize=13,
+                fig.text(_MARGIN, 0.955, "Scene parameters (SI units, continued)", fontsize=13,
                          fontweight="bold", va="top", ha="left")
                 top = 0.89
                 x0, ncol = _MARGIN, ncols_next

@@ -176,7 +176,12 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
             except InputError:
                 hmax = (t_end - t0) / 20.0
         n_ev = kern.n_events
-        max_log = 200_000
+        # event log sized to the run (contacts per revolution are tens): a huge log costs page faults
+        try:
+            n_revs = (t_end - t0) / crank_period(scene)
+        except InputError:
+            n_revs = 100.0
+        max_log = int(min(1_000_000, 1000 + 400 * n_revs))
         if method == "dopri5":
             out = kern.module.solve(float(t0), np.ascontiguousarray(y0, dtype=float), t_eval, bool(land), p, z,
                                     float(rtol), atol, 0.0, float(hmax), int(max_steps), int(n_ev), max_log)

@@ -131,7 +131,9 @@ def peaks(spec: pd.DataFrame, n: int = 10, *, min_order: float | None = None,
     if refine and len(f) > 1:
         dfb = f[1] - f[0]
         for j, i in enumerate(idx):
-            if 0 < i < len(p) - 1 and p[i - 1] > 0 and p[i + 1] > 0:
+            # skip a bin-centred peak (neighbours below -40 dB, e.g. a whole number of periods
+            # with no window): its bin frequency is already exact
+            if 0 < i < len(p) - 1 and min(p[i - 1], p[i + 1]) > 1e-4 * p[i]:
                 a, b, c = np.log(p[i - 1]), np.log(p[i]), np.log(p[i + 1])
                 den = a - 2 * b + c
                 if den < 0:
@@ -183,15 +185,18 @@ def _default_observable(table: pd.DataFrame) -> str:
 def table_spectrum(table: pd.DataFrame, observable: str | None = None, *, transient: float = 0.0,
                    transient_revs: float | None = None, crank_frequency: float | None = None,
                    method: str = "welch", window="hann", nperseg: int | None = None,
-                   detrend: str | bool = "constant") -> pd.DataFrame:
+                   detrend: str | bool = "constant", whole_revs: bool = True) -> pd.DataFrame:
     """Spectrum of one column of a run table (``SimulationResult.table`` or a loaded file).
 
     observable: a column (default the contact force ``<joint>.Fn`` of the first clearance joint,
     N). The rows with t < t0 + transient (s) are dropped (or transient_revs crank periods);
     the rest is resampled uniformly (linear interpolation at the median step, a no-op for the
     uniform grid ``simulate`` outputs by default). crank_frequency (Hz): default mean
-    ``driver.speed`` / 2 pi of the kept rows. Other arguments as :func:`spectrum`; ``attrs`` add
-    ``observable``, ``t_start``, ``t_end``.
+    ``driver.speed`` / 2 pi of the kept rows. whole_revs: keep only a whole number of crank
+    revolutions (when one revolution is a whole number of samples, as for ``simulate``'s
+    ``samples_per_rev`` grid): ``simulate`` returns both end points, N revolutions + 1 sample;
+    trimmed, the crank harmonics fall exactly on FFT bins. Other arguments as :func:`spectrum`;
+    ``attrs`` add ``observable``, ``t_start``, ``t_end``.
     """
     if "t" not in table.columns:
         raise InputError("the table has no time column 't'")
@@ -213,6 +218,13 @@ def table_spectrum(table: pd.DataFrame, observable: str | None = None, *, transi
                          "run longer or drop less")
     fc = crank_frequency or crank_frequency_of(kept)
     tu, xu = resample_uniform(kept["t"].to_numpy(dtype=float), kept[obs].to_numpy(dtype=float))
+    if whole_revs and fc:
+        h = float(tu[1] - tu[0])
+        per_rev = 1.0 / (fc * h)                  # samples per revolution
+        revs = math.floor(len(tu) / per_rev + 1e-9)
+        n_keep = int(round(revs * per_rev))
+        if revs >= 1 and abs(n_keep - revs * per_rev) < 1e-6 * per_rev and 8 <= n_keep <= len(tu):
+            tu, xu = tu[:n_keep], xu[:n_keep]
     spec = spectrum(xu, float(tu[1] - tu[0]), method=method, window=window, nperseg=nperseg,
                     crank_frequency=fc, detrend=detrend)
     spec.attrs.update(observable=obs, t_start=float(tu[0]), t_end=float(tu[-1]))

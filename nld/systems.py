@@ -81,13 +81,16 @@ class ContinuousSystem:
             functions (as ``Kernel.module.solve``), so the integrator loads from numba's cache.
     hmax:   step cap (s); default period/20 for a forced system, else none.
     time_unit: unit of t (default "s"): exponents are reported per time_unit.
+    t0:     the time of y0 (default 0); analyses start there (the forcing phase of a forced
+            system or a scene depends on it).
     """
 
     is_map = False
 
     def __init__(self, rhs, y0, p=(), name: str = "system", state_names=None, scales=None,
                  period: float | None = None, *, z0=None, events=None, on_event=None,
-                 n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s"):
+                 n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
+                 t0: float = 0.0):
         self.rhs = rhs
         self.y0 = _as_vector(y0, "y0")
         self.n = self.y0.size
@@ -112,19 +115,33 @@ class ContinuousSystem:
             hmax = self.period / 20.0 if self.period is not None else 0.0
         self.hmax = float(hmax)
         self.time_unit = time_unit
+        self.t0 = float(t0)
 
     def solve(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
               max_log):
         """DOPRI5 with this system's functions (see ``nld.integrators.dopri5.dopri5``)."""
-        if self._solve is not None:
-            return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
-                               n_events, max_log)
-        return dopri5(self.rhs, self.events, self.on_event, t0, y0, t_eval, land, p, z, rtol,
-                      atol, h0, hmax, max_steps, n_events, max_log)
+        if self._solve is None:
+            self._solve = _make_solver(self.rhs, self.events, self.on_event)
+        return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
+                           n_events, max_log)
 
     def __repr__(self):
         per = "" if self.period is None else f", period={self.period:.6g} {self.time_unit}"
         return f"ContinuousSystem({self.name!r}, n={self.n}{per})"
+
+
+def _make_solver(rhs, events, on_event):
+    """A jitted DOPRI5 wrapper for user functions (compiled once per process, not cached).
+
+    ``dopri5`` is ``cache=True, inline='always'``: calling it from Python with function
+    arguments would try to write dispatcher types into its disk-cache index, which fails once
+    that index holds types of functions from other processes; inlined into this uncached
+    closure it never touches the cache."""
+    @njit
+    def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+        return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+                      max_steps, n_events, max_log)
+    return solve
 
 
 class DiscreteMap:
@@ -405,7 +422,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSyst
 
 def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
                rtol: float = 1e-10):
-    """States sampled every dt after a transient: (t, Y), Y[i] = y(transient + i dt).
+    """States sampled every dt after a transient: (t, Y), Y[i] = y(t0 + transient + i dt).
 
     Flows: DOPRI5 with dense output (t in s). Maps: dt is ignored, Y[i] = x_{transient + i}.
     """
@@ -418,10 +435,11 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
             x = iterate(system, x, 1)
         return np.arange(n_samples, dtype=float) + int(transient), Y
     y, z = system.y0.copy(), system.z0.copy()
+    t0 = system.t0
     if transient > 0:
-        y, z = advance(system, y, z, 0.0, transient, rtol)
-    t_eval = transient + dt * np.arange(n_samples)
-    out = system.solve(float(transient), y, t_eval, False, system.p, z, float(rtol),
+        y, z = advance(system, y, z, t0, t0 + transient, rtol)
+    t_eval = t0 + transient + dt * np.arange(n_samples)
+    out = system.solve(float(t0 + transient), y, t_eval, False, system.p, z, float(rtol),
                        rtol * system.scales, 0.0, float(system.hmax), DEFAULT_MAX_STEPS,
                        int(system.n_events), 1)
     if out[0] != 0:

@@ -435,6 +435,9 @@ def per_revolution_maxima(tables: dict, ts: float, scene) -> dict:
     out = {}
     for name, df in tables.items():
         s = _steady(df, ts)
+        if not len(s):
+            out[name] = []
+            continue
         k = np.floor((s["t"].to_numpy() - ts) / per + 1e-9).astype(int)
         w = np.abs(s["rod.omega"].to_numpy())
         n = int(k.max()) if len(k) else -1

@@ -86,6 +86,15 @@ def test_duffing_forced_has_no_zero_exponent():
     assert q.per_revolution[0] == pytest.approx(q.exponents[0] * s.period)
 
 
+def test_start_time_t0_is_used():
+    s = S.duffing()
+    s.t0 = 2.0
+    t, Y = S.trajectory(s, 3, 0.1)
+    assert t[0] == 2.0 and np.array_equal(Y[0], s.y0)
+    y, _ = S.advance(s, s.y0, s.z0, 2.0, 2.3)
+    assert np.allclose(S.trajectory(s, 4, 0.1)[1][3], y, rtol=1e-7, atol=1e-9)
+
+
 def test_nolds_wrappers_units_and_determinism():
     nolds = _import_nolds()
     s = S.lorenz()

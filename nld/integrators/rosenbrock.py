@@ -158,49 +158,105 @@ def _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne):
     return True
 
 
-@njit(cache=True, inline='always')
-def fd_jacobian(rhs, events, t, y, f0, p, z, typ, hscale, J, fx, ytmp, ftmp, gbase, gtmp, ne):
-    """J = df/dy (column-wise forward differences, increment sqrt(eps)*max(|y_j|, typ_j)) and
-    fx = df/dt (increment sqrt(eps)*max(|t|, hscale)) at (t, y) with f0 = f(t, y).
+@njit(cache=True)
+def _pick_difference(fp, fm, f0, dp, dm, out):
+    """out = the derivative estimate from f(+dp) = fp and f(+dm) = fm (dp > 0 > dm, f0 = f(0)).
 
-    gbase = the n_events event functions at (t, y). An increment that would put an event function
-    on the other side of its zero (a contact onset, a load switch: a kink or jump of f) is taken
-    backwards instead, so the difference quotient never straddles the discontinuity.
-    Returns whether J and fx are finite (n + 1 rhs evaluations)."""
+    Where the forward and backward quotients agree (|a - b| <= 0.1 (|a| + |b|), a smooth f) the
+    central difference is used; where they do not, a discontinuity of f (Coulomb friction's sign
+    of the slip, a force clamp) lies between -|dm| and dp and the smaller quotient, the one-sided
+    difference on the smooth side, is used. Returns whether all entries are finite."""
+    finite = True
+    for i in range(out.shape[0]):
+        qa = (fp[i] - f0[i]) / dp
+        qb = (fm[i] - f0[i]) / dm
+        if abs(qa - qb) <= 0.1 * (abs(qa) + abs(qb)):
+            v = (fp[i] - fm[i]) / (dp - dm)
+        elif abs(qa) <= abs(qb):
+            v = qa
+        else:
+            v = qb
+        out[i] = v
+        if not math.isfinite(v):
+            finite = False
+    return finite
+
+
+@njit(cache=True, inline='always')
+def fd_jacobian(rhs, events, t, y, f0, p, z, typ, hscale, J, fx, ytmp, fp, fm, col, gbase, gtmp,
+                ne):
+    """J = df/dy and fx = df/dt at (t, y), f0 = f(t, y), by differences of the rhs inside numba.
+
+    Column j uses the increments +-sqrt(eps)*max(|y_j|, typ_j) (typ: the state's error scale),
+    t the increments +-sqrt(eps)*max(|t|, hscale). Both sides are evaluated and combined by
+    ``_pick_difference`` (central where f is smooth, one-sided on the smooth side of a jump).
+    An increment that would put an event function (gbase = the events at (t, y)) on the other
+    side of its zero, i.e. across a contact onset or a load switch, is not used: the difference
+    is then one-sided on the side of the base point.
+    Returns (whether J and fx are finite, rhs evaluations used: 2n + 2 at most)."""
     n = y.shape[0]
     for j in range(n):
         ytmp[j] = y[j]
     finite = True
-    for j in range(n):
-        yj = y[j]
-        d = SQRT_EPS * max(abs(yj), typ[j])
-        if not (d > 0.0):
-            d = SQRT_EPS
-        ytmp[j] = yj + d
-        if not _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne):
+    nev = 0
+    for j in range(n + 1):
+        if j < n:
+            yj = y[j]
+            d = SQRT_EPS * max(abs(yj), typ[j])
+            if not (d > 0.0):
+                d = SQRT_EPS
+            ytmp[j] = yj + d
+            dp = ytmp[j] - yj
+            ok_p = _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne)
+            if ok_p:
+                rhs(t, ytmp, p, z, fp)
+                nev += 1
             ytmp[j] = yj - d
-        d = ytmp[j] - yj            # the increment actually represented (signed)
-        rhs(t, ytmp, p, z, ftmp)
-        for i in range(n):
-            v = (ftmp[i] - f0[i]) / d
-            J[i, j] = v
-            if not math.isfinite(v):
-                finite = False
-        ytmp[j] = yj
-    dt = SQRT_EPS * max(abs(t), hscale)
-    if not (dt > 0.0):
-        dt = SQRT_EPS
-    tt = t + dt
-    if not _same_sides(events, tt, y, p, z, gbase, gtmp, ne):
-        tt = t - dt
-    dt = tt - t
-    rhs(tt, y, p, z, ftmp)
-    for i in range(n):
-        v = (ftmp[i] - f0[i]) / dt
-        fx[i] = v
-        if not math.isfinite(v):
+            dm = ytmp[j] - yj
+            ok_m = _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne)
+            if ok_m or not ok_p:
+                rhs(t, ytmp, p, z, fm)
+                nev += 1
+            ytmp[j] = yj
+        else:
+            d = SQRT_EPS * max(abs(t), hscale)
+            if not (d > 0.0):
+                d = SQRT_EPS
+            tp = t + d
+            tm = t - d
+            dp = tp - t
+            dm = tm - t
+            ok_p = _same_sides(events, tp, y, p, z, gbase, gtmp, ne)
+            if ok_p:
+                rhs(tp, y, p, z, fp)
+                nev += 1
+            ok_m = _same_sides(events, tm, y, p, z, gbase, gtmp, ne)
+            if ok_m or not ok_p:
+                rhs(tm, y, p, z, fm)
+                nev += 1
+        if ok_p and ok_m:
+            good = _pick_difference(fp, fm, f0, dp, dm, col)
+        elif ok_p:
+            good = True
+            for i in range(n):
+                col[i] = (fp[i] - f0[i]) / dp
+                if not math.isfinite(col[i]):
+                    good = False
+        else:
+            good = True
+            for i in range(n):
+                col[i] = (fm[i] - f0[i]) / dm
+                if not math.isfinite(col[i]):
+                    good = False
+        if not good:
             finite = False
-    return finite
+        if j < n:
+            for i in range(n):
+                J[i, j] = col[i]
+        else:
+            for i in range(n):
+                fx[i] = col[i]
+    return finite, nev
 
 
 @njit(cache=True)
@@ -446,8 +502,9 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
                 nfev += 1
                 need_f0 = False
             # gcur = events(t, y) is current here (start, accepted step, or event point)
-            ok = fd_jacobian(rhs, events, t, y, f0, p, z, typ, h, J, fx, ytmp, dy, gcur, gtmp, ne)
-            nfev += n + 1
+            ok, nev = fd_jacobian(rhs, events, t, y, f0, p, z, typ, h, J, fx, ytmp, dy, ynew, yint,
+                             gcur, gtmp, ne)
+            nfev += nev
             njac += 1
             need_jac = False
             for i in range(n):
@@ -606,12 +663,14 @@ def rodas_fixed(rhs, t0, y0, h, n_steps, p, z, typ):
     E = np.empty((n, n))
     piv = np.zeros(n, dtype=np.int64)
     gnone = np.zeros(0)
+    fx2 = np.empty(n)
     for s in range(n_steps):
         t = t0 + s * h
         t_new = t0 + (s + 1) * h
         hs = t_new - t
         rhs(t, y, p, z, f0)
-        fd_jacobian(rhs, no_events, t, y, f0, p, z, typ, hs, J, fx, ytmp, dy, gnone, gnone, 0)
+        fd_jacobian(rhs, no_events, t, y, f0, p, z, typ, hs, J, fx, ytmp, dy, ynew, fx2, gnone,
+                    gnone, 0)
         _build_matrix(J, 1.0 / (hs * GAMMA), E)
         if not lu_factor(E, piv):
             y[:] = np.nan
