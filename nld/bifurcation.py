@@ -22,10 +22,10 @@ optionally, the largest Lyapunov exponent (``nld.lyapunov.lyapunov_benettin``).
 
 Output (``out=DIR``): one parquet file per finished point, ``DIR/point-<direction>-<index>.parquet``,
 written atomically when the point finishes (a killed sweep loses only the points in progress),
-with the point's final state and wall time in its metadata, plus ``DIR/provenance.json`` (nld version, git hash,
-scene with all its parameters, param, values, tolerances and settings). ``resume=True`` skips the
-points whose file exists (the settings must match those in provenance.json). :func:`load_sweep`
-reads the directory back into one table.
+with the point's final state and wall time in its metadata, plus ``DIR/provenance.json`` (nld
+version, git hash, scene with all its parameters, param, values, tolerances and settings).
+``resume=True`` skips the points whose file exists (the settings must match those in
+provenance.json). :func:`load_sweep` reads the directory back into one table.
 
 Table columns: ``value`` (the parameter value), ``direction`` ("up"/"down"), ``index`` (position
 of the value in ``values``), ``rev`` (crank revolution of the section point; -1 on the single row of
@@ -500,7 +500,8 @@ def _dask_client(dask):
     try:
         from distributed import Client
     except ImportError:
-        raise InputError("dask: the distributed package is missing: pip install \"dask[distributed]\"") from None
+        raise InputError("dask: the distributed package is missing: "
+                         "pip install \"dask[distributed]\"") from None
     if isinstance(dask, Client):
         return dask, False
     if isinstance(dask, str):

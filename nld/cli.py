@@ -4,6 +4,10 @@
     nld show SCENE [--set KEY=VALUE ...]         resolved parameters with units
     nld simulate SCENE [--set ...] [--revs N | --t-end T] [--rtol R] [--samples-per-rev N]
                  [--ideal] [--out FILE.csv|FILE.parquet]
+    nld poincare SCENE [--set ...] --transient N --revs M [--observables A,B] --out FILE
+    nld bifurcation SCENE --param KEY --values START:STOP:COUNT [...] --out DIR [--resume] [--dask ADDR]
+    nld spectrum SCENE [--set ...] [--observable NAME] [--out FILE]
+    nld lyapunov SCENE [--set ...] [--transient N] [--revs M] [--json]
     nld study NAME [--quick] [--out-dir DIR]     run studies/NAME.py, print the PDF path
     nld --version
 
@@ -130,6 +134,31 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--out", metavar="FILE", help="write the table to FILE.csv or FILE.parquet "
                                                  "(provenance in FILE.json / parquet metadata)")
     sp.set_defaults(func=cmd_simulate)
+
+    from . import bifurcation, poincare, spectrum
+    poincare.add_arguments(sub)
+    bifurcation.add_arguments(sub)
+    spectrum.add_arguments(sub)
+
+    sp = sub.add_parser("lyapunov", help="largest Lyapunov exponent of a scene (Benettin)",
+                        description="Largest Lyapunov exponent by Benettin's two-trajectory method "
+                                    "(nld.lyapunov), in 1/s and per crank revolution, with its "
+                                    "uncertainty; --spectrum K adds the first K exponents by the "
+                                    "independent perturbation-vector (QR) method.")
+    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a TOML file")
+    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a scene value (repeatable)")
+    sp.add_argument("--transient", type=float, default=20.0, metavar="REVS",
+                    help="transient in crank revolutions (default 20)")
+    sp.add_argument("--revs", type=float, default=200.0, metavar="REVS",
+                    help="averaging length in crank revolutions (default 200)")
+    sp.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
+    sp.add_argument("--d0", type=float, default=1e-5, help="initial separation, scaled norm (default 1e-5)")
+    sp.add_argument("--seed", type=int, default=0, help="seed of the initial perturbation (default 0)")
+    sp.add_argument("--spectrum", type=int, default=0, metavar="K",
+                    help="also the first K exponents by the perturbation-vector method")
+    sp.add_argument("--json", action="store_true", help="print the result as JSON")
+    sp.set_defaults(func=cmd_lyapunov)
 
     sp = sub.add_parser("study", help="run a study (studies/NAME.py) and print its PDF path",
                         description="Run studies/NAME.py (or the unique studies/NAME*.py) by calling its "
@@ -266,6 +295,44 @@ def available_studies(d: Path | None = None) -> list[str]:
     if not d.is_dir():
         return []
     return sorted(p.stem for p in d.glob("*.py") if not p.name.startswith(("_", ".")) and p.is_file())
+
+
+def cmd_lyapunov(args) -> int:
+    import json
+
+    from .lyapunov import lyapunov_benettin, lyapunov_spectrum
+    from .systems import SceneSystem
+    from .simulate import provenance
+    for name in ("transient", "revs", "rtol", "d0"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"--{name.replace('_', '-')} = {v!r}: must be a positive number")
+    if args.transient <= 0 or args.revs < 1:
+        raise InputError(f"--revs = {args.revs!r}: must be at least 1 revolution")
+    system = SceneSystem(args.scene, args.overrides)
+    T = system.period
+    res = lyapunov_benettin(system, transient=args.transient * T, total=args.revs * T, d0=args.d0,
+                            rtol=args.rtol, seed=args.seed)
+    out = {"scene": system.scene.name, "exponent_per_s": res.exponent,
+           "uncertainty_per_s": res.uncertainty, "exponent_per_revolution": res.per_revolution,
+           "uncertainty_per_revolution": res.uncertainty_per_revolution, "method": res.method,
+           "transient_revs": args.transient, "revs": args.revs, "rtol": args.rtol, "d0": args.d0,
+           "seed": args.seed}
+    if args.spectrum > 0:
+        sp = lyapunov_spectrum(system, args.spectrum, transient=args.transient * T,
+                               total=args.revs * T, rtol=args.rtol)
+        out["spectrum_per_s"] = [float(x) for x in sp.exponents]
+        out["spectrum_uncertainty_per_s"] = [float(x) for x in sp.uncertainty]
+    prov = provenance(system.scene, system.kernel, rtol=args.rtol)
+    if args.json:
+        out["provenance"] = {k: v for k, v in prov.items() if k != "scene_parameters"}
+        print(json.dumps(out, indent=2, default=float))
+    else:
+        print(str(res))
+        if args.spectrum > 0:
+            print("spectrum (1/s): " + ", ".join(f"{x:.4g} +- {u:.2g}" for x, u in
+                                                zip(out["spectrum_per_s"], out["spectrum_uncertainty_per_s"])))
+    return 0
 
 
 def find_study(name: str, d: Path | None = None) -> Path:

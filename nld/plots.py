@@ -149,8 +149,8 @@ def exponent_convergence(result=None, *, times=None, history=None, uncertainty=N
         H = H[:, None]
     U = np.broadcast_to(np.asarray(uncertainty if uncertainty is not None else 0.0, dtype=float),
                         (H.shape[1],))
-    xlabel, ylabel = f"averaging time ({'s' if units.endswith('/s') else units.split('/')[-1] or 's'})", \
-        f"Lyapunov exponent ({units})"
+    time_unit = units.split("/")[-1] if "/" in units else "s"
+    xlabel, ylabel = f"averaging time ({time_unit})", f"Lyapunov exponent ({units})"
     if per_revolution:
         if not period:
             raise ValueError("per_revolution needs a period")
@@ -209,6 +209,7 @@ def spectrum_plot(spec: pd.DataFrame, *, ax=None, title: str | None = None, log:
         ax.legend()
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"power spectral density ({u}²/Hz)" if u else "power spectral density (1/Hz)")
-    desc = f"{a.get('method', '')}, {a.get('window', '')} window, Δf = {a.get('resolution_hz', float('nan')):.3g} Hz"
+    res = a.get("resolution_hz", float("nan"))
+    desc = f"{a.get('method', '')}, {a.get('window', '')} window, Δf = {res:.3g} Hz"
     ax.set_title(title if title is not None else f"Spectrum{' of ' + obs if obs else ''} ({desc})")
     return fig

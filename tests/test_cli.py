@@ -261,3 +261,21 @@ def test_python_m_nld_exit_status():
                        timeout=120)
     assert p.returncode == 2
     assert p.stderr.strip() == "nld: error: joints.B.clearance = -0.001: must be >= 0 (m)"
+
+
+def test_lyapunov_command_json(capsys):
+    import json
+    rc = main(["lyapunov", "slider_crank", "--transient", "2", "--revs", "10", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scene"] == "slider_crank" and "git_hash" in out["provenance"]
+    # per revolution = per second x crank period
+    T = 2 * 3.141592653589793 / 523.5987755982989
+    assert abs(out["exponent_per_revolution"] - out["exponent_per_s"] * T) < 1e-9 * abs(out["exponent_per_s"] * T)
+
+
+def test_lyapunov_command_bad_input(capsys):
+    rc = main(["lyapunov", "slider_crank", "--rtol", "-1"])
+    assert rc == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--rtol" in err[0]
