@@ -22,7 +22,7 @@ from .dopri5 import (
     no_on_event,
     status_message,
 )
-from .dop853 import dop853, dop853_fixed
+from .dop853 import STIFF, dop853, dop853_fixed
 from .rosenbrock import SINGULAR, rodas, rodas_fixed
 
 NATIVE_METHODS = ("dopri5", "dop853", "rodas")
@@ -51,6 +51,7 @@ __all__ = [
     "STEP_UNDERFLOW",
     "NON_FINITE",
     "SINGULAR",
+    "STIFF",
 ]
 
 
@@ -106,6 +107,10 @@ def method_status_message(method: str, status, t_reached, stats) -> str:
     if status == NON_FINITE:
         return (f"{method}: non-finite value (NaN/inf) in the solution at t = {t:.9g} s: the state "
                 f"diverged (check parameters and initial conditions, or loosen {hint})")
+    if status == STIFF:
+        return (f"{method}: the problem became stiff at t = {t:.9g} s: the step size is limited by "
+                f"stability, not accuracy, and the stiff components would be noisy or wrong "
+                f"({counts}); use method='rodas'")
     if status == SINGULAR:
         return (f"{method}: the iteration matrix I/(h*gamma) - J was singular {5} times in a row at "
                 f"t = {t:.9g} s (check the model for a singular mass matrix or NaN Jacobian entries)")

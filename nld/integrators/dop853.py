@@ -16,6 +16,10 @@ Interface (identical to ``dopri5``)::
         max_steps, n_events, max_log)
 
 ``stats = [steps, accepted, rejected, rhs evaluations, events]`` (length 5, as dopri5).
+Statuses: those of dopri5, plus ``STIFF = -6`` from Hairer's stiffness detection (dop853.f): when
+15 accepted steps are limited by stability rather than accuracy, the run stops there instead of
+going on with a noisy, possibly wrong stiff component (seen on heavily damped persistent contact);
+use the stiff solver ``rodas``.
 
 This module also holds the method-independent event and output helpers shared with
 :mod:`nld.integrators.rosenbrock`: ``locate_event`` (Illinois root finding on any dense output
@@ -220,6 +224,11 @@ BETA = 0.0       # dop853.f default: no PI term
 EXPO1 = 1.0 / 8.0 - BETA * 0.2
 FACOLD0 = 1.0e-4
 
+# ---------------------------------------------------------------- stiffness detection (dop853.f)
+STIFF = -6          # status: the step size is limited by stability (the problem is stiff)
+HLAMB_STIFF = 6.1   # |h| * (Lipschitz estimate along the last stage) above this: a stiff step
+N_STIFF = 15        # this many stiff steps (not separated by 6 non-stiff ones) stop the run
+
 
 # ================================================================ shared event / output helpers
 @njit(cache=True)
@@ -422,6 +431,20 @@ def _error_norm(h, y, ynew, K, atol, rtol):
     return e
 
 
+@njit(cache=True)
+def _stiff_step(h, K, ynew, y12):
+    """dop853.f's test: h*sqrt(|K12 - K11|^2 / |ynew - y12|^2) > 6.1 (y12 = the last stage's
+    argument, K11 = f(t_new, y12), K12 = f(t_new, ynew)): the step is at the stability limit."""
+    stnum = 0.0
+    stden = 0.0
+    for i in range(ynew.shape[0]):
+        stnum += (K[12, i] - K[11, i]) ** 2
+        stden += (ynew[i] - y12[i]) ** 2
+    if stden > 0.0:
+        return abs(h) * math.sqrt(stnum / stden) > HLAMB_STIFF
+    return False
+
+
 @njit(cache=True, inline='always')
 def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
     """Three extra stages K[13..15] and the coefficients of the 7th-order continuous extension:
@@ -466,7 +489,9 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
 
     status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
-    underflow, -3 non-finite values. stats = [steps, accepted, rejected, rhs evals, events].
+    underflow, -3 non-finite values, -6 the problem became stiff (Hairer's stiffness detection:
+    15 steps at the stability limit; an explicit method would go on with noisy, possibly wrong
+    stiff components: use rodas). stats = [steps, accepted, rejected, rhs evals, events].
     """
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
@@ -540,6 +565,8 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     facold = FACOLD0
     reject = False
     n_nonfinite = 0
+    iasti = 0
+    nonsti = 0
     status = 0
 
     while True:
@@ -548,6 +575,9 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             break
         if n_steps >= max_steps:
             status = -1
+            break
+        if iasti >= N_STIFF:
+            status = STIFF
             break
         target = t_eval[i_out] if land else t_end
         if h > hcap:
@@ -594,6 +624,14 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         reject = False
         facold = max(err, FACOLD0)
         n_acc += 1
+        # Hairer's stiffness detection: |h| * |f(ynew) - f(y12)| / |ynew - y12| at t_new
+        if _stiff_step(h, K, ynew, ytmp):
+            nonsti = 0
+            iasti += 1
+        else:
+            nonsti += 1
+            if nonsti == 6:
+                iasti = 0
 
         # ------------------------------------------------ event detection
         have_event = False
