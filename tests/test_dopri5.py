@@ -109,7 +109,10 @@ def run_bang(t_eval, stop=False, levels=(), rtol=1e-10, atol=1e-12, max_log=64, 
     out = dopri5(bang_rhs, bang_events, bang_on_event, 0.0, np.array([1.0, 0.0]),
                  np.asarray(t_eval, dtype=np.float64), land, p, z, rtol,
                  np.array([atol, atol]), 0.0, hmax, 100000, 1 + len(levels), max_log)
-    return out, z
+    Z = out[9]
+    # the discrete state recorded per output row is the z in force there
+    assert Z.shape == (len(t_eval), 3)
+    return out[:9], z
 
 
 # ------------------------------------------------------------------ 1. convergence order

@@ -108,9 +108,10 @@ def method_status_message(method: str, status, t_reached, stats) -> str:
         return (f"{method}: non-finite value (NaN/inf) in the solution at t = {t:.9g} s: the state "
                 f"diverged (check parameters and initial conditions, or loosen {hint})")
     if status == STIFF:
-        return (f"{method}: the problem became stiff at t = {t:.9g} s: the step size is limited by "
-                f"stability, not accuracy, and the stiff components would be noisy or wrong "
-                f"({counts}); use method='rodas'")
+        return (f"{method}: the problem became stiff at t = {t:.9g} s ({counts}): the step size is "
+                f"limited by stability, not accuracy, and an explicit method would go on with noisy, "
+                f"possibly wrong stiff components; use method='rodas' (if the cause is a jump of the "
+                f"forces instead, e.g. Coulomb friction sticking, use dopri5 or a regularized friction law)")
     if status == SINGULAR:
         return (f"{method}: the iteration matrix I/(h*gamma) - J was singular {5} times in a row at "
                 f"t = {t:.9g} s (check the model for a singular mass matrix or NaN Jacobian entries)")

@@ -229,6 +229,8 @@ STIFF = -6          # status: the step size is limited by stability (the problem
 HLAMB_STIFF = 6.1   # |h| * (Lipschitz estimate along the last stage) above this: a stiff step
 N_STIFF = 15        # this many stiff steps (not separated by 6 non-stiff ones) stop the run
 
+MAX_RELOCATE = 8    # event location: retakes of a step to land on a root (see dop853)
+
 
 # ================================================================ shared event / output helpers
 @njit(cache=True)
@@ -402,9 +404,15 @@ def _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z):
 
 
 @njit(cache=True)
-def _error_norm(h, y, ynew, K, atol, rtol):
+def _error_norm(h, y, ynew, K, atol, rtol, cautious):
     """Hairer's DOP853 error: |h| err5^2 / sqrt(n (err5^2 + 0.01 err3^2)) (RMS-scaled);
-    NaN if anything is non-finite."""
+    NaN if anything is non-finite.
+
+    The combination is O(h^8) for a smooth solution, but where the 3rd-order estimate is more
+    than 10x the 5th-order one it is *smaller* than the 5th-order estimate. That happens on the
+    step that starts at a contact onset (the force grows like (t - t*)^1.5, the solution is not
+    smooth there) and let a step with a wrong impact velocity through. With ``cautious`` (the
+    first step after an event) the error is at least the plain 5th-order estimate."""
     n = y.shape[0]
     err = 0.0
     err2 = 0.0
@@ -426,6 +434,8 @@ def _error_norm(h, y, ynew, K, atol, rtol):
     if deno <= 0.0:
         deno = 1.0
     e = abs(h) * err * math.sqrt(1.0 / (n * deno))
+    if cautious:
+        e = max(e, abs(h) * math.sqrt(err / n))
     if not math.isfinite(e):
         return np.nan
     return e
@@ -567,6 +577,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     n_nonfinite = 0
     iasti = 0
     nonsti = 0
+    after_event = False
     status = 0
 
     while True:
@@ -593,7 +604,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
         _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z)
         nfev += 12
-        err = _error_norm(h, y, ynew, K, atol, rtol)
+        err = _error_norm(h, y, ynew, K, atol, rtol, after_event)
 
         if not math.isfinite(err):
             n_rej += 1
@@ -622,6 +633,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         if reject:
             hnew = min(hnew, h)
         reject = False
+        after_event = False
         facold = max(err, FACOLD0)
         n_acc += 1
         # Hairer's stiffness detection: |h| * |f(ynew) - f(y12)| / |ynew - y12| at t_new
@@ -656,47 +668,75 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             continue
 
         # ------------------------------------------------ event location
+        # Locate the earliest root on the dense output of [t, t_c], retake the step from t to
+        # land on it, and check the retaken (accurate) end state: the dense output of a step
+        # that straddles a contact onset can be poor, so the root may be late (the retaken step
+        # would cross the event unchecked) or early (the event has not happened yet).
+        # Iterate on the retaken step until the root is at its end (at most MAX_RELOCATE).
         _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
         nfev += 3
         tol = ROOT_RTOL * max(1.0, abs(t_new))
-        t_star = t_new
-        for k in range(ne):
-            if crossed[k]:
-                troot[k] = locate_event(events, interp, k, sgn[k], t, h, t_new, gcur[k],
-                                        gnew[k], cont, yint, gtmp, p, z, tol)
-                if troot[k] < t_star:
-                    t_star = troot[k]
+        t_c = t_new             # end of the current step, state ynew
+        h_c = h
+        dense_h = h             # cont is the dense output of [t, t + dense_h]
+        dense_ok = True         # ... and belongs to the current step
+        fire = True
+        t_star = t_c
+        for _ in range(MAX_RELOCATE):
+            t_star = t_c
+            for k in range(ne):
+                if crossed[k]:
+                    troot[k] = locate_event(events, interp, k, sgn[k], t, dense_h, t_c,
+                                            gcur[k], gnew[k], cont, yint, gtmp, p, z, tol)
+                    if troot[k] < t_star:
+                        t_star = troot[k]
+            if t_star <= t or t_star >= t_c - tol:
+                break
+            interp((t_star - t) / dense_h, cont, yint)
+            _stages(rhs, t, t_star - t, t_star, y, K, ytmp, ynew, p, z)
+            nfev += 12
+            ok = True
+            for j in range(n):
+                if not math.isfinite(ynew[j]):
+                    ok = False
+                    break
+            t_c = t_star
+            if not ok:
+                for j in range(n):   # fall back on the interpolant of the longer step
+                    ynew[j] = yint[j]
+                break
+            h_c = t_star - t
+            dense_ok = False
+            events(t_c, ynew, p, z, gnew)
+            if not find_crossings(gnew, sgn, crossed):
+                fire = False         # the event comes later: t_c is a plain step end
+                break
+            _dense(rhs, t, h_c, y, ynew, K, ytmp, cont, p, z)
+            nfev += 3
+            dense_h = h_c
+            dense_ok = True
 
         if t_star > t:
-            dense_ok = True
-            h_d = h
-            if t_star < t_new:
-                # retake the step so the state at t_star is a true 8th-order solution
-                interp((t_star - t) / h, cont, yint)
-                h_s = t_star - t
-                _stages(rhs, t, h_s, t_star, y, K, ytmp, ynew, p, z)
-                nfev += 12
-                ok = True
-                for j in range(n):
-                    if not math.isfinite(ynew[j]):
-                        ok = False
-                        break
-                if ok:
-                    h_d = h_s
-                    dense_ok = False     # cont belongs to the long step
-                else:
-                    for j in range(n):   # fall back on the interpolant of the original step
-                        ynew[j] = yint[j]
-            if not dense_ok and i_out < n_eval and t_eval[i_out] < t_star:
-                _dense(rhs, t, h_d, y, ynew, K, ytmp, cont, p, z)
+            if not dense_ok and i_out < n_eval and t_eval[i_out] < t_c:
+                _dense(rhs, t, h_c, y, ynew, K, ytmp, cont, p, z)
                 nfev += 3
-            i_out = write_outputs(interp, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
-            t = t_star
+                dense_h = h_c
+            i_out = write_outputs(interp, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
+            t = t_c
             y, ynew = ynew, y
+
+        if not fire:
+            for i in range(n):          # FSAL: K[12] = f(t_c, ynew) of the retaken step
+                K[0, i] = K[12, i]
+            gcur, gnew = gnew, gcur
+            set_unknown_signs(gcur, sgn)
+            h = hnew
+            continue
 
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
         # z may have changed: FSAL is invalid, recompute K[0] and g at the event point
+        after_event = True
         rhs(t, y, p, z, K[0])
         nfev += 1
         events(t, y, p, z, gcur)

@@ -95,7 +95,7 @@ ROOT_MAXITER = 200
 
 
 # ---------------------------------------------------------------- kernels
-@njit(cache=True, inline='always')
+@njit(cache=False, inline='always')
 def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
     """One DOPRI5 step from (t, y) with k1 = f(t, y): fills k2..k7, ynew; k7 = f(t_new, ynew)."""
     n = y.shape[0]
@@ -170,7 +170,7 @@ def _interp_row(theta, y, r2, r3, r4, r5, Y, row):
         Y[row, i] = y[i] + theta * (r2[i] + th1 * (r3[i] + theta * (r4[i] + th1 * r5[i])))
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False, inline='always')
 def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
     """Hairer's HINIT for a 5th-order method (one extra rhs evaluation)."""
     n = y.shape[0]
@@ -203,7 +203,7 @@ def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
     return min(100.0 * abs(h), h1, hmax, span)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False, inline='always')
 def _locate(events, k, s, t, h, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p, z, tol):
     """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t_new].
 
@@ -259,7 +259,7 @@ def _locate(events, k, s, t, h, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p,
     return b
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False, inline='always')
 def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
            max_steps, n_events, max_log):
     """Adaptive DOPRI5 from t0 to t_eval[-1].
@@ -535,7 +535,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
 
 
-@njit(cache=True)
+@njit(cache=False)
 def dopri5_fixed(rhs, t0, y0, h, n_steps, p, z):
     """n_steps fixed DOPRI5 steps of size h (5th-order solution, no control, no events)."""
     n = y0.shape[0]

@@ -39,6 +39,7 @@ from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events
 
 SINGULAR = -5          # iteration matrix repeatedly singular
 MAX_SINGULAR = 5
+MAX_RELOCATE = 8       # event location: retakes of a step to land on a root
 SQRT_EPS = math.sqrt(EPS)
 
 # ---------------------------------------------------------------- Rodas4 (rodas.f, ROCOE METH=1)
@@ -590,43 +591,59 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
             continue
 
         # ------------------------------------------------ event location
+        # as dop853: locate on the dense output, retake the step (same Jacobian, new LU) to land
+        # on the root, check the retaken end state, iterate until the root is at its end
         _dense(y, ynew, AK, cont)
         tol = ROOT_RTOL * max(1.0, abs(t_new))
-        t_star = t_new
-        for k in range(ne):
-            if crossed[k]:
-                troot[k] = locate_event(events, interp, k, sgn[k], t, h, t_new, gcur[k],
-                                        gnew[k], cont, yint, gtmp, p, z, tol)
-                if troot[k] < t_star:
-                    t_star = troot[k]
+        t_c = t_new             # end of the current step, state ynew
+        dense_h = h             # cont is the dense output of [t, t + dense_h]
+        fire = True
+        t_star = t_c
+        for _ in range(MAX_RELOCATE):
+            t_star = t_c
+            for k in range(ne):
+                if crossed[k]:
+                    troot[k] = locate_event(events, interp, k, sgn[k], t, dense_h, t_c,
+                                            gcur[k], gnew[k], cont, yint, gtmp, p, z, tol)
+                    if troot[k] < t_star:
+                        t_star = troot[k]
+            if t_star <= t or t_star >= t_c - tol:
+                break
+            interp((t_star - t) / dense_h, cont, yint)
+            h_s = t_star - t
+            ok = False
+            _build_matrix(J, 1.0 / (h_s * GAMMA), E)
+            nlu += 1
+            if lu_factor(E, piv):
+                _stages(rhs, t, h_s, t_star, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
+                nfev += 5
+                ok = True
+                for j in range(n):
+                    if not math.isfinite(ynew[j]):
+                        ok = False
+                        break
+            t_c = t_star
+            if not ok:
+                for j in range(n):   # fall back on the interpolant of the longer step
+                    ynew[j] = yint[j]
+                break
+            _dense(y, ynew, AK, cont)
+            dense_h = h_s
+            events(t_c, ynew, p, z, gnew)
+            if not find_crossings(gnew, sgn, crossed):
+                fire = False         # the event comes later: t_c is a plain step end
+                break
 
         if t_star > t:
-            h_d = h
-            if t_star < t_new:
-                # retake the step (same Jacobian, new LU) so the state at t_star is a
-                # true 4th-order solution
-                interp((t_star - t) / h, cont, yint)
-                h_s = t_star - t
-                ok = False
-                _build_matrix(J, 1.0 / (h_s * GAMMA), E)
-                nlu += 1
-                if lu_factor(E, piv):
-                    _stages(rhs, t, h_s, t_star, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
-                    nfev += 5
-                    ok = True
-                    for j in range(n):
-                        if not math.isfinite(ynew[j]):
-                            ok = False
-                            break
-                if ok:
-                    h_d = h_s
-                    _dense(y, ynew, AK, cont)
-                else:
-                    for j in range(n):   # fall back on the interpolant of the original step
-                        ynew[j] = yint[j]
-            i_out = write_outputs(interp, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
-            t = t_star
+            i_out = write_outputs(interp, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
+            t = t_c
             y, ynew = ynew, y
+
+        if not fire:
+            gcur, gnew = gnew, gcur
+            set_unknown_signs(gcur, sgn)
+            h = hnew
+            continue
 
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
