@@ -61,12 +61,23 @@ class Kernel:
         return q + [lab + "_dot" for lab in q]
 
 
-def _generator_digest() -> str:
-    """Hash of the code generator's own source, so a changed generator never reuses an old kernel."""
-    h = hashlib.sha1()
+def kernel_dependencies() -> list[Path]:
+    """The source files whose change must give a new kernel (see ``_generator_digest``)."""
     here = Path(__file__).resolve().parent
-    for f in ("codegen.py", "topology.py", "parameters.py", "kernel_support.py"):
-        h.update((here / f).read_bytes())
+    files = [here / f for f in ("codegen.py", "topology.py", "parameters.py", "kernel_support.py",
+                                "contact.py", "friction.py")]
+    return files + sorted((here / "integrators").glob("*.py"))
+
+
+def _generator_digest() -> str:
+    """Hash of the source of the code generator and of every module the generated kernel calls.
+
+    numba's disk cache checks only the timestamp of the generated file itself, not of the njit
+    functions it calls (contact and friction laws, the integrators, inlined into the cached
+    ``solve``); without them in the key an upgraded integrator would silently run the old code."""
+    h = hashlib.sha1()
+    for f in kernel_dependencies():
+        h.update(f.read_bytes())
     return h.hexdigest()[:12]
 
 
