@@ -6,13 +6,14 @@
 Two crank revolutions at 5000 rpm, rtol 1e-6 and 1e-8, in one run:
 
 (i)   the generated scene kernel through nld's dopri5 (the kernel module's ``solve``, the call
-      ``nld.simulate`` makes, with the same arguments: atol = rtol * state_scales, hmax =
+      ``nld.simulate`` makes, with the same arguments: tolerances(kernel, q, rtol), hmax =
       period/20, contact events on), without the per-row observation that simulate adds
       afterwards, so both kernels do the same work;
 (ii)  the hand-written kernel (benchmarks/handwritten_slider_crank.py) through the same dopri5,
       wrapped the same way;
 (iii) scipy.integrate.solve_ivp, RK45 / DOP853 / LSODA, on the scene kernel's numba rhs wrapped in
-      a Python function, with the same atol vector and max_step, over a ladder of rtol.
+      a Python function, with the same atol vector and per-state rtol (rtol * weight, floored at
+      100 eps where the weight is 0) and max_step, over a ladder of rtol.
 
 The contact-law memory of Lankarani-Nikravesh (approach velocity stored at onset) needs event
 handling, which solve_ivp only offers through terminal events and restarts; so the main three-way
@@ -26,7 +27,7 @@ of several timed runs, timed in CPU time of the process (equal to wall-clock tim
 machine; on a shared one wall-clock time also counts waiting for a core, so both are reported).
 nld is timed with simulate's 200000-entry event log and with a 1000-entry one: same steps, but the
 allocation of the long log can cost up to half of a short run (docs/performance.md). The error of every run is measured against a reference computed by a
-different method: scipy DOP853 at rtol 1e-12 (atol = 1e-12 * state_scales; for LN with terminal
+different method: scipy DOP853 at rtol 1e-12 (the same tolerance vector; for LN with terminal
 events at contact onset and loss), cross-checked against nld's dopri5 at rtol 1e-12. Errors are
 taken over the first half revolution (the motion is chaotic; later differences measure the
 Lyapunov exponent, not the integrator): the maximum distance between the journal centres (m, and
@@ -61,7 +62,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 import handwritten_slider_crank as H  # noqa: E402
 from nld.kernel import compile_scene  # noqa: E402
 from nld.scene import load_scene  # noqa: E402
-from nld.simulate import crank_period, initial_state, state_scales  # noqa: E402
+from nld.simulate import crank_period, initial_state, tolerances  # noqa: E402
 
 REVS = 2.0
 NLD_RTOLS = (1e-6, 1e-8)
@@ -90,7 +91,7 @@ class Case:
     ph: np.ndarray
     y0: np.ndarray
     z0: np.ndarray
-    scales: np.ndarray
+    q: np.ndarray               # initial joint coordinates (for nld.simulate.tolerances)
     period: float
     t_eval: np.ndarray
     t_time: np.ndarray          # output times of the timed runs: nld.simulate's default grid
@@ -112,7 +113,7 @@ def make_case(law: str) -> Case:
     t_eval = t_eval[np.r_[True, np.diff(t_eval) > 1e-9 * per]]     # drop near-duplicates
     t_w = t_eval[np.argmin(np.abs(t_eval - WINDOW_REVS * per))]
     return Case(law, scene, kern, kern.params(scene), H.hand_params(scene), y0, z0,
-                state_scales(kern, q), per, t_eval, coarse, t_eval <= t_w, t_w)
+                q, per, t_eval, coarse, t_eval <= t_w, t_w)
 
 
 # ------------------------------------------------------------------ contact force along a solution
@@ -142,12 +143,17 @@ def errors(case: Case, m: dict) -> tuple[float, float]:
 
 
 # ------------------------------------------------------------------ nld dopri5 runs
+def tol_vector(case: Case, rtol: float) -> np.ndarray:
+    """The 2n tolerance vector nld.simulate passes (atol, then per-state rtol weights)."""
+    return tolerances(case.kern, case.q, rtol)
+
+
 def _dopri5(case: Case, kernel: str, rtol: float, t_eval: np.ndarray, max_log: int = MAX_LOG):
     """One run through the kernel module's ``solve`` (nld's dopri5 specialised for the kernel),
     with the arguments nld.simulate passes to it."""
     mod, par = (case.kern.module, case.p) if kernel == "scene" else (H, case.ph)
     z = case.z0.copy()
-    return mod.solve(0.0, case.y0.copy(), t_eval, False, par, z, float(rtol), rtol * case.scales,
+    return mod.solve(0.0, case.y0.copy(), t_eval, False, par, z, float(rtol), tol_vector(case, rtol),
                      0.0, case.period / 20.0, MAX_STEPS, int(case.kern.n_events), max_log)
 
 
@@ -167,7 +173,10 @@ def scipy_run(case: Case, method: str, rtol: float, t_end=None, with_events=Fals
     if t_end is not None:
         t_eval = t_eval[t_eval <= t_end]
     t_end = t_eval[-1]
-    atol = rtol * case.scales
+    tv = tol_vector(case, rtol)
+    n = case.y0.size
+    atol = tv[:n]
+    rtol = np.maximum(rtol * tv[n:], 100 * np.finfo(float).eps)    # per-state rtol (0 -> floor)
     z = case.z0.copy()
 
     def f(t, y):
@@ -456,8 +465,8 @@ def main(argv=None) -> int:
         f"outputs on {len(hd.t_eval)} times ({FINE_PER_REV} per revolution in the error window), "
         "which changes no step of any of the integrators. nld runs with simulate's arguments, "
         f"including its {MAX_LOG}-entry event log, and again with a {SMALL_LOG}-entry log (same "
-        "steps; the difference is the cost of allocating the log). atol = rtol * "
-        "nld.simulate.state_scales and max step = period/20 for every method. Errors over the first "
+        "steps; the difference is the cost of allocating the log). Tolerances: "
+        "nld.simulate.tolerances (positions absolute) and max step = period/20 for every method. Errors over the first "
         f"{WINDOW_REVS:g} revolution against scipy DOP853 at rtol {REF_RTOL:g} (nld dopri5 at rtol "
         f"{REF_RTOL:g} differs from it by {hd.ref['check'][0]:.1e} m (hertz_damped) and "
         f"{ln.ref['check'][0]:.1e} m (lankarani_nikravesh)). Journal error: largest distance between "

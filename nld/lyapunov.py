@@ -4,7 +4,7 @@ Estimators (see docs/lyapunov.md):
 
 * :func:`lyapunov_benettin` -- largest exponent from two trajectories (Benettin et al. 1980):
   a reference and a perturbed copy at scaled distance d0, both integrated by DOPRI5 with the
-  same rtol and per-state atol = rtol * scales on *their own* states (each trajectory has its own
+  same rtol and per-state atol (``system.tolerance(rtol)``) on *their own* states (each trajectory has its own
   step-size control, event location and discrete state z), renormalised back to d0 every
   ``renorm_interval``. For a map: the two orbits, renormalised every ``renorm_interval``
   iterations.
@@ -347,7 +347,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
       total: 500 periods (else 500), the averaging time after the transient.
       d0: 1e-5, the separation in the scaled norm ||dy / scales|| (for a scene: 1e-5 of the
         clearance-based scales, i.e. nanometres at the journal).
-      rtol: 1e-10; atol = rtol * scales. *Both* trajectories are integrated by DOPRI5 under this
+      rtol: 1e-10; atol = system.tolerance(rtol). *Both* trajectories are integrated by DOPRI5 under this
         error control, each with its own step sizes, event location and discrete state z.
       checks: 32 per interval when the system has a period, else 1: the separation is measured
         every T/checks and, where it exceeds max_growth * d0 (max_growth: 10), renormalised
@@ -447,7 +447,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
 
     Flows: perturbation-vector method, no tangent equations. k perturbed trajectories
     y_j = y + d0 * scales * q_j (q_j orthonormal) are integrated next to the reference, each by
-    DOPRI5 with rtol and atol = rtol * scales on its own states and with its own discrete state;
+    DOPRI5 with rtol and atol = system.tolerance(rtol) on its own states and with its own discrete state;
     every renorm_interval the scaled separations (y_j - y)/(d0 scales) are QR-factorised
     (Gram-Schmidt), ln|R_jj| / T are the local rates and the q_j are replaced by the columns of Q.
       renorm_interval: period/32 (a scene: 1/32 crank revolution), else 0.1 -- short, so that

@@ -213,7 +213,7 @@ def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0
         raise InputError(f"y0 = {y0!r}: need {system.n} values")
     k = np.arange(transient_revs, transient_revs + revs)
     t_eval = np.ascontiguousarray(k * T, dtype=float)
-    atol = np.ascontiguousarray(rtol * system.scales, dtype=float)
+    atol = system.tolerance(rtol)
     start = time.perf_counter()
     out = system.solve(0.0, y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
                        float(system.hmax), int(max_steps), int(system.n_events), 1000)
@@ -396,7 +396,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     grid = np.ascontiguousarray(np.linspace(t_transient, t_end, n_grid))
     y = np.ascontiguousarray(system.y0 if y0 is None else y0, dtype=float).copy()
     z = np.array(system.z0 if z0 is None else z0, dtype=float)
-    atol = np.ascontiguousarray(rtol * system.scales, dtype=float)
+    atol = system.tolerance(rtol)
     hmax = float(system.hmax)
     start = time.perf_counter()
     out = system.solve(0.0, y, grid, False, system.p, z.copy(), float(rtol), atol, 0.0, hmax,

@@ -97,6 +97,35 @@ def initial_state(kernel: Kernel):
     return y0, z0, q
 
 
+def position_sizes(kernel: Kernel) -> np.ndarray:
+    """Natural size of each position state: 1 rad for an angle, the mechanism's size (m) for a
+    slide or a floating position (largest distance of a named point from its body frame)."""
+    sc, topo = kernel.scene, kernel.topo
+    size = max((math.hypot(*v) for b in sc.bodies.values() for v in b.points.values()),
+               default=0.1) or 0.1
+    return np.array([size if topo.coords[k].kind in ("pri", "fx", "fy") else 1.0
+                     for k in topo.independent])
+
+
+def tolerances(kernel: Kernel, q0: np.ndarray, rtol: float) -> np.ndarray:
+    """The integrators' 2n tolerance vector: absolute tolerances, then per-state rtol weights.
+
+    Positions (angles, slides, floating positions) are controlled absolutely, to
+    ``rtol * max(state_scales, position_sizes)`` (weight 0): not relative to their current value,
+    because a joint angle measured from a rotating crank winds by 2 pi per revolution and a
+    relative tolerance would loosen as the run goes on (revolution 10^4 as accurate as
+    revolution 1). Velocities: ``atol = rtol * state_scales`` plus the relative term (weight 1).
+    docs/integrator.md, "Tolerances"; nld.integrators.dopri5.rweight.
+    """
+    sc = state_scales(kernel, q0)
+    npos = sc.size // 2
+    atol = rtol * sc
+    atol[:npos] = rtol * np.maximum(sc[:npos], position_sizes(kernel))
+    w = np.ones(sc.size)
+    w[:npos] = 0.0
+    return np.ascontiguousarray(np.concatenate([atol, w]))
+
+
 def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | None = None,
              rtol: float = DEFAULT_RTOL, t_eval=None, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
              overrides=None, y0=None, z0=None, t0: float = 0.0, land: bool = False,
@@ -106,7 +135,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
 
     scene: a Scene, a built-in name or a TOML path (``overrides`` as for ``nld --set``).
     t_end (s) or revs (crank revolutions): the end of the run. rtol: relative tolerance; absolute
-    tolerances are ``rtol * state_scales`` (clearance-scaled). t_eval: output times (s); default
+    tolerances as ``tolerances`` (positions absolute, clearance-scaled). t_eval: output times (s); default
     ``samples_per_rev`` per crank revolution. land: land exactly on the output times (stroboscopic
     sampling). hmax (s): step cap, default a twentieth of a crank period. method: "dopri5" (default),
     "dop853", "rodas" (stiff) or "scipy:RK45|DOP853|Radau|LSODA" (docs/integrators.md).
@@ -169,7 +198,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
             q_scale[kern.topo.independent] = y0[: len(kern.topo.independent)]
         else:
             q_scale = q_init
-        atol = rtol * state_scales(kern, q_scale)
+        atol = tolerances(kern, q_scale, rtol)
         if hmax is None:
             try:
                 hmax = crank_period(scene) / 20.0

@@ -73,6 +73,8 @@ class ContinuousSystem:
     state_names: names of the n states (default y0, y1, ...).
     scales: per-state absolute scales (default 1): the absolute tolerance of state i is
             ``rtol * scales[i]`` and separations are measured as ||dy_i / scales[i]||.
+            ``tolerance(rtol)`` gives the integrators' atol vector; a scene system overrides
+            it (``tolerance_fn``) with ``nld.simulate.tolerances`` (positions absolute).
     period: forcing period (s) of a forced system (crank period of a scene), or None.
     z0:     initial discrete state (default empty); events/on_event/n_events: as for
             ``nld.integrators.dopri5`` (default none).
@@ -102,6 +104,7 @@ class ContinuousSystem:
         if len(self.state_names) != self.n:
             raise InputError(f"state_names = {state_names!r}: need {self.n} names")
         self.scales = _scales(scales, self.n)
+        self.tolerance_fn = None
         if period is not None and not (math.isfinite(period) and period > 0):
             raise InputError(f"period = {period!r}: must be a positive time or None")
         self.period = None if period is None else float(period)
@@ -116,6 +119,13 @@ class ContinuousSystem:
         self.hmax = float(hmax)
         self.time_unit = time_unit
         self.t0 = float(t0)
+
+    def tolerance(self, rtol: float) -> np.ndarray:
+        """The atol vector for the integrators at ``rtol``: ``rtol * scales`` by default; n
+        absolute tolerances then n rtol weights when ``tolerance_fn`` is set (scenes)."""
+        if self.tolerance_fn is not None:
+            return np.ascontiguousarray(self.tolerance_fn(float(rtol)), dtype=float)
+        return np.ascontiguousarray(rtol * self.scales, dtype=float)
 
     def solve(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
               max_log):
@@ -170,6 +180,7 @@ class DiscreteMap:
         self.state_names = ([f"x{i}" for i in range(self.n)] if state_names is None
                             else [str(s) for s in state_names])
         self.scales = _scales(scales, self.n)
+        self.tolerance_fn = None
         self.z0 = np.zeros(0)
 
     @property
@@ -185,7 +196,7 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
     """Integrate ``system`` from (t0, y, z) to t1 with DOPRI5; returns (y(t1), z(t1)).
 
-    rtol: relative tolerance; atol: absolute tolerance per state (default ``rtol * scales``).
+    rtol: relative tolerance; atol: absolute tolerance per state (default ``system.tolerance(rtol)``).
     Events (contact onsets of a scene) are located and handled by ``on_event``, which updates
     the discrete state; the inputs are not modified (z is copied). hmax: step cap (default the
     system's). A failed integration raises :class:`nld.errors.SolveError`.
@@ -195,7 +206,7 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
     y = np.ascontiguousarray(y, dtype=float)
     z = np.array(z, dtype=float)
     if atol is None:
-        atol = rtol * system.scales
+        atol = system.tolerance(rtol)
     atol = np.ascontiguousarray(atol, dtype=float)
     t_eval = np.array([float(t1)])
     out = system.solve(float(t0), y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
@@ -392,7 +403,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSyst
     """
     from .kernel import compile_scene
     from .scene import load_scene
-    from .simulate import crank_period, initial_state, state_scales
+    from .simulate import crank_period, initial_state, state_scales, tolerances
     if isinstance(scene_or_name, str):
         scene = load_scene(scene_or_name, overrides)
     else:
@@ -417,6 +428,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSyst
                             on_event=mod.on_event, n_events=kern.n_events, solve=mod.solve)
     sysm.scene = scene
     sysm.kernel = kern
+    sysm.tolerance_fn = lambda rtol, _k=kern, _q=q: tolerances(_k, _q, rtol)
     return sysm
 
 

@@ -37,7 +37,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .dopri5 import EPS, MAX_NONFINITE, ROOT_MAXITER, ROOT_RTOL
+from .dopri5 import EPS, MAX_NONFINITE, ROOT_MAXITER, ROOT_RTOL, rweight
 
 # ---------------------------------------------------------------- Hairer's DOP853 coefficients
 # Rows 0..11: the 12 stages; row 12: the 8th-order weights B (the FSAL point, K[12] =
@@ -355,7 +355,7 @@ def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
     dnf = 0.0
     dny = 0.0
     for i in range(n):
-        sk = atol[i] + rtol * abs(y[i])
+        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
         dnf += (f0[i] / sk) ** 2
         dny += (y[i] / sk) ** 2
     if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf) or not math.isfinite(dny):
@@ -368,7 +368,7 @@ def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
     rhs(t0 + h, y1, p, z, f1)
     der2 = 0.0
     for i in range(n):
-        sk = atol[i] + rtol * abs(y[i])
+        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
         der2 += ((f1[i] - f0[i]) / sk) ** 2
     der2 = math.sqrt(der2) / h
     der12 = max(abs(der2), math.sqrt(dnf))
@@ -420,7 +420,7 @@ def _error_norm(h, y, ynew, K, atol, rtol, cautious):
         yn = ynew[i]
         if not math.isfinite(yn):
             return np.nan
-        sk = atol[i] + rtol * max(abs(y[i]), abs(yn))
+        sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(yn))
         e3 = 0.0
         e5 = 0.0
         for j in range(12):
@@ -512,8 +512,8 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             raise ValueError("t_eval must be sorted ascending")
     if n_eval > 0 and t_eval[0] < t0:
         raise ValueError("t_eval must lie within [t0, t_end]")
-    if atol.shape[0] != n:
-        raise ValueError("atol must have one entry per state")
+    if atol.shape[0] != n and atol.shape[0] != 2 * n:
+        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
 
     Y = np.full((n_eval, n), np.nan)
     Zo = np.zeros((n_eval, z.shape[0]))

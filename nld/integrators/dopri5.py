@@ -95,6 +95,20 @@ ROOT_MAXITER = 200
 
 
 # ---------------------------------------------------------------- kernels
+@njit(cache=True, inline='always')
+def rweight(atol, n, i):
+    """Weight of rtol for state i: ``atol[n + i]`` when ``atol`` has 2n entries, else 1.
+
+    The error scale of state i is ``atol[i] + rtol * rweight * max(|y_i|, |ynew_i|)``. A weight
+    of 0 makes the control of that state purely absolute: used for angles that wind (a relative
+    joint angle grows by 2 pi per crank revolution, so a relative tolerance would loosen as the
+    run goes on) and for positions whose size says nothing about the accuracy needed (a journal
+    position of 0.1 m next to a clearance of 0.1 mm). docs/integrator.md, "Tolerances"."""
+    if atol.shape[0] == 2 * n:
+        return atol[n + i]
+    return 1.0
+
+
 @njit(cache=False, inline='always')
 def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
     """One DOPRI5 step from (t, y) with k1 = f(t, y): fills k2..k7, ynew; k7 = f(t_new, ynew)."""
@@ -131,7 +145,7 @@ def _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol):
         if not math.isfinite(yn):
             return np.nan
         e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i])
-        sk = atol[i] + rtol * max(abs(y[i]), abs(yn))
+        sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(yn))
         q = e / sk
         acc += q * q
     if n == 0:
@@ -177,7 +191,7 @@ def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
     dnf = 0.0
     dny = 0.0
     for i in range(n):
-        sk = atol[i] + rtol * abs(y[i])
+        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
         dnf += (f0[i] / sk) ** 2
         dny += (y[i] / sk) ** 2
     if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf) or not math.isfinite(dny):
@@ -190,7 +204,7 @@ def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
     rhs(t0 + h, y1, p, z, f1)
     der2 = 0.0
     for i in range(n):
-        sk = atol[i] + rtol * abs(y[i])
+        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
         der2 += ((f1[i] - f0[i]) / sk) ** 2
     der2 = math.sqrt(der2) / h
     der12 = max(abs(der2), math.sqrt(dnf))
@@ -281,8 +295,8 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             raise ValueError("t_eval must be sorted ascending")
     if n_eval > 0 and t_eval[0] < t0:
         raise ValueError("t_eval must lie within [t0, t_end]")
-    if atol.shape[0] != n:
-        raise ValueError("atol must have one entry per state")
+    if atol.shape[0] != n and atol.shape[0] != 2 * n:
+        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
 
     Y = np.full((n_eval, n), np.nan)
     Zo = np.zeros((n_eval, z.shape[0]))     # discrete state in force at each output row

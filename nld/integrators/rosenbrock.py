@@ -35,7 +35,7 @@ from numba import njit
 
 from .dop853 import (fire_events, find_crossings, initial_step, locate_event, set_unknown_signs,
                      write_outputs)
-from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events
+from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events, rweight
 
 SINGULAR = -5          # iteration matrix repeatedly singular
 MAX_SINGULAR = 5
@@ -349,7 +349,7 @@ def _error_norm(y, ynew, ak6, atol, rtol):
         yn = ynew[i]
         if not math.isfinite(yn):
             return np.nan
-        sk = atol[i] + rtol * max(abs(y[i]), abs(yn))
+        sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(yn))
         q = ak6[i] / sk
         acc += q * q
     if n == 0:
@@ -400,8 +400,8 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
             raise ValueError("t_eval must be sorted ascending")
     if n_eval > 0 and t_eval[0] < t0:
         raise ValueError("t_eval must lie within [t0, t_end]")
-    if atol.shape[0] != n:
-        raise ValueError("atol must have one entry per state")
+    if atol.shape[0] != n and atol.shape[0] != 2 * n:
+        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
 
     Y = np.full((n_eval, n), np.nan)
     Zo = np.zeros((n_eval, z.shape[0]))

@@ -37,7 +37,7 @@ def solve_scipy(kernel, y0, z0, t_eval, p, method, rtol, atol, *, t0=None, hmax=
                 max_steps=10_000_000, max_log=200_000, land=False):
     """Integrate ``kernel`` with scipy's ``method`` from t0 (default t_eval[0]) to t_eval[-1].
 
-    rtol: scalar; atol: scalar or one per state; hmax > 0 caps the step (solve_ivp's max_step).
+    rtol: scalar; atol: scalar, one per state, or 2n (atol, then rtol weights per state); hmax > 0 caps the step (solve_ivp's max_step).
     land=True is not supported (solve_ivp does not land on output times): ValueError.
     """
     from scipy.integrate import solve_ivp
@@ -117,11 +117,18 @@ def solve_scipy(kernel, y0, z0, t_eval, p, method, rtol, atol, *, t0=None, hmax=
     n_empty = 0
     max_step = float(hmax) if hmax and hmax > 0.0 else np.inf
     atol_arg = np.asarray(atol, dtype=float)
+    rtol_arg = float(rtol)
+    if atol_arg.ndim == 1 and atol_arg.shape[0] == 2 * n:
+        # atol, then per-state rtol weights (nld.integrators.dopri5.rweight); Radau accepts a
+        # scalar rtol only, so there the weights are dropped (its control is then looser)
+        if method != "Radau":
+            rtol_arg = np.maximum(rtol * atol_arg[n:], 100 * np.finfo(float).eps)
+        atol_arg = atol_arg[:n]
     while t < t_end:
         for k in range(ne):
             evs[k].direction = float(-sgn[k])
         try:
-            sol = solve_ivp(fun, (t, t_end), y, method=method, rtol=float(rtol), atol=atol_arg,
+            sol = solve_ivp(fun, (t, t_end), y, method=method, rtol=rtol_arg, atol=atol_arg,
                             events=evs if ne else None, dense_output=True, max_step=max_step)
         except _Budget:
             status = MAX_STEPS
