@@ -1,6 +1,7 @@
 """Study zhang2013_excavator (studies/zhang2013_excavator.py) in quick mode: files, pages, table.
 
-Quick mode takes about 15-30 s on two cores (4 cases x 2 crank revolutions at rtol 1e-6).
+Quick mode takes about 25-35 s on two cores (4 cases x 2 crank revolutions at rtol 1e-6, then the chaos
+analysis: 4 sweep points x (1 + 2 + 2 x 2) revolutions at rtol 1e-5).
 """
 from __future__ import annotations
 
@@ -49,9 +50,10 @@ def test_quick_writes_pdf_parquet_and_summary(quick_run):
     assert data.startswith(b"%PDF")
     assert b"quick" in data                         # PDF Keywords carry the mode
     # title page(s) + intro, summary table, 2 discussion pages, 3 figures x 2 groups, 2 force pages,
-    # the phase plot, the run statistics
+    # the phase plot, the chaos analysis (text, exponent table, sections, 2 bifurcation diagrams,
+    # spectra), the run statistics
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 14
+    assert count_pages(pdf) == title_pages + 20
     assert (out / "zhang2013_excavator.parquet").is_file()
     assert (out / "zhang2013_excavator_summary.csv").is_file()
 
@@ -86,3 +88,27 @@ def test_table_max_omega_equals_stored_series(quick_run):
     # clearance impacts make the rod turn faster than with ideal joints, as in the paper
     assert (om["nld"] > om["ideal joints"]).all()
     assert om.loc["r=0.5mm", "nld"] > om.loc["r=0.01mm", "nld"]
+
+
+def test_chaos_analysis_table_matches_stored_sections(quick_run):
+    study, out, _ = quick_run
+    pts, prov = load_table(out / "zhang2013_excavator_chaos.csv")
+    secs, _ = load_table(out / "zhang2013_excavator_sections.parquet")
+    an = study.ANALYSIS_QUICK
+    assert prov["analysis"]["rtol"] == an["rtol"]
+    assert sorted(pts.loc[pts["sweep"] == "clearance", "value"]) == sorted(an["clearances"])
+    assert sorted(pts.loc[pts["sweep"] == "friction", "value"]) == sorted(an["frictions"])
+    # every paper case is a point of a sweep, with a finished section and a finite exponent
+    for name, (sweep, value) in study.CASE_POINTS.items():
+        p = pts[(pts["sweep"] == sweep) & np.isclose(pts["value"], value)]
+        assert len(p) == 1 and p["status"].iloc[0] == "ok", name
+        s = secs[(secs["sweep"] == sweep) & np.isclose(secs["value"], value) & (secs["rev"] >= 0)]
+        assert len(s) == p["section_points"].iloc[0] == an["section_revs"]
+        assert np.isfinite(p["lambda_per_rev"].iloc[0])
+        # the journal stays within its clearance plus the contact penetration (a few µm under ~10 kN)
+        assert (np.hypot(s["A.ex"], s["A.ey"]) < study._case_clearance(name, "A") + 10e-6).all()
+    period = 2 * np.pi / study.OMEGA1
+    ok = pts[pts["status"] == "ok"]
+    assert np.allclose(ok["lambda_per_rev"], ok["lambda"] * period, rtol=1e-9)
+    spectra, _ = load_table(out / "zhang2013_excavator_spectra.parquet")
+    assert {f"{n}:{j}" for n in study.CASES for j in "AB"} == set(spectra["case"])
