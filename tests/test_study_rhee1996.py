@@ -77,9 +77,11 @@ def test_sweep_exponents_match_table(quick_run):
     sweeps, prov = load_table(out / "rhee1996_sweeps.parquet")
     period = 2 * np.pi / prov["scene_parameters"]["driver"]["speed"]
     assert set(sweeps["case"]) == {"clearance", "friction"}
-    fr = sweeps[sweeps["case"] == "friction"].drop_duplicates("index")
+    sw = sweeps[sweeps["case"] == "friction"]
+    fr = sw.drop_duplicates("index")
     assert sorted(fr["value"].astype(float)) == sorted(study.QUICK["frictions"])
-    pts = study.sweep_points(fr, period)
+    pts = study.sweep_points(sw, period, clearance=0.25e-3)
     assert np.allclose(pts["lambda_per_rev"], fr.sort_values("index")["lyapunov"] * period)
+    assert len(sw[sw["index"] == 0]) == study.QUICK["sweep_revs"]
     # friction makes the four-bar regular: the largest coefficient has a smaller exponent than mu = 0
     assert pts["lambda_per_rev"].iloc[-1] < pts["lambda_per_rev"].iloc[0]
