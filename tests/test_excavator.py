@@ -151,15 +151,16 @@ def test_seed_clearance_trend_three_revolutions():
 
 
 FRICTION_XFAIL = ("seed trend not reproduced: max |rod omega| does not grow systematically from f = 0 to "
-                  "f = 0.05 in this model; the revolution-to-revolution scatter of the impact peaks "
-                  "(4.3-9.0 rad/s at f = 0) exceeds any friction effect. Measured per window: 1 rev 5.26 vs "
-                  "4.89, 3 revs 5.50 vs 6.74, 10 revs 9.02 vs 6.95 rad/s (docs/models/excavator.md)")
+                  "f = 0.05 in this model (the seed: 40 -> 90 rad/s, x2.25; asserted here: x1.5); the "
+                  "revolution-to-revolution scatter of the impact peaks exceeds any friction effect. "
+                  "Measured (rtol 1e-7): 1 rev 4.76 vs 4.89, 3 revs 6.99 vs 6.83 rad/s; 10 revs 9.02 vs "
+                  "6.95 rad/s with the earlier relative position control (docs/models/excavator.md)")
 
 
 @pytest.mark.xfail(reason=FRICTION_XFAIL, strict=False)
 def test_seed_friction_trend_first_revolution():
     """Seed Fig. 4: max |rod omega| 40 -> 90 rad/s for f = 0 -> 0.05 at the default clearances."""
-    assert rod_omega_max(friction(0.05), 1) > rod_omega_max(friction(0.0), 1)
+    assert rod_omega_max(friction(0.05), 1) > 1.5 * rod_omega_max(friction(0.0), 1)
 
 
 @pytest.mark.slow
@@ -168,4 +169,4 @@ def test_seed_friction_trend_ten_revolutions():
     """3-6 minutes: Coulomb friction at f = 0.05 needs ~1.3e8 steps for ten revolutions."""
     res = simulate(NAME, revs=10, rtol=RTOL, overrides=friction(0.05), max_steps=400_000_000)
     assert res.success, res.message
-    assert float(np.abs(res.table["rod.omega"]).max()) > rod_omega_max(friction(0.0), 10)
+    assert float(np.abs(res.table["rod.omega"]).max()) > 1.5 * rod_omega_max(friction(0.0), 10)
