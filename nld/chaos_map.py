@@ -1,0 +1,679 @@
+"""Chaos maps: the largest Lyapunov exponent (and the 0-1 test) over a grid of two scene parameters.
+
+    from nld.chaos_map import chaos_map, chaos_map_plot, load_chaos_map
+    df = chaos_map("slider_crank_olyaei", "joints.B.clearance", [1e-4, 2e-4, 5e-4],
+                   "joints.B.friction.mu", [0.0, 0.05, 0.1], transient_revs=20, revs=100,
+                   rtol=1e-10, out="maps/sc", resume=True)
+    fig = chaos_map_plot(df)                       # lambda per revolution, onset boundary lambda = 0
+    fig = chaos_map_plot(df, value="K")            # the 0-1 test's K
+
+Every grid cell (x, y) is one scene (the base scene, ``base_overrides``, then each key of
+``param_x`` set to x and each key of ``param_y`` set to y: a parameter may be a tuple of ``--set``
+keys set together, e.g. the clearances of joints A and B) and runs:
+
+1. a stroboscopic section (:func:`nld.poincare.stroboscopic`): ``transient_revs`` crank
+   revolutions discarded, then ``revs`` section points of ``observable`` (default: ``<J>.ex`` of
+   the first clearance joint), at ``rtol``;
+2. the largest Lyapunov exponent by :func:`nld.lyapunov.lyapunov_benettin` from the end of the
+   section (its state lies at a multiple of the crank period, so the trajectory is continued) over
+   ``lyapunov_revs`` (default ``revs``) revolutions, at ``lyapunov_rtol`` (default ``rtol``) with
+   separation ``d0`` (default the Lyapunov module's 1e-5, scaled norm) and ``seed``;
+3. the 0-1 test for chaos (:func:`nld.zero_one.zero_one_test`) of the section series: a cheap
+   second opinion from the points already computed (no extra integration). It needs ``revs`` >=
+   30 (else K is NaN with a note) and is rough below a few hundred points. A section that repeats
+   to ``period_tol`` (period 1 by :func:`nld.poincare.period_of`) is a fixed point: K = 0.
+
+Parallel runs, files and resume reuse :mod:`nld.bifurcation`'s machinery (its point files,
+provenance checks, worker warm-up, batching and Dask client): the cells are independent points of
+a sweep whose "value" is the pair (x, y). ``workers`` local spawned processes (default the CPU
+count; 1 runs in this process) or ``dask`` (a ``distributed.Client`` or scheduler address).
+``out=DIR`` holds ``point-grid-<index>.parquet`` per finished cell (index = iy * len(values_x) +
+ix; rows: the section points with the cell's results repeated; metadata: final state and wall
+time) and ``provenance.json``; ``resume=True`` skips the cells whose file exists (the settings must
+match). A failing cell (bad value, failed integration, failed exponent) is recorded with status
+"failed" and its message, and the map goes on.
+
+Result (one row per cell, y outer, x inner): ``x, y, ix, iy, exponent`` (1/s), ``uncertainty``
+(1/s, block standard error + history spread, docs/lyapunov.md), ``per_revolution`` and
+``uncertainty_per_revolution`` (natural log per crank revolution), ``verdict`` ("chaotic":
+exponent - uncertainty > 0, "regular": exponent + uncertainty < 0, "uncertain" otherwise,
+"failed"), ``K``, ``K_spread`` (half the inter-quartile range of K_c), ``period`` (of the section,
+0 none), ``status``, ``message``. ``attrs``: ``provenance``, ``param_x``, ``param_y`` (lists of
+keys), ``wall_s`` ({index: seconds}).
+"""
+from __future__ import annotations
+
+import copy
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import bifurcation as _bif
+from .errors import InputError
+
+__all__ = ["chaos_map", "load_chaos_map", "chaos_map_plot", "param_label", "SUMMARY_COLUMNS",
+           "add_arguments", "cli_chaos_map"]
+
+DIRECTION = "grid"
+SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolution",
+                   "uncertainty_per_revolution", "verdict", "K", "K_spread", "period", "status",
+                   "message"]
+MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
+# settings checked on resume besides bifurcation's (nld.bifurcation._SETTINGS)
+_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one")
+
+
+@dataclass
+class _Job:
+    """Everything a worker needs for a cell (picklable)."""
+    spec: _bif._Spec          # scene, section and tolerance settings (bifurcation's point spec)
+    keys_x: list
+    keys_y: list
+    observable: str | None
+    d0: float | None
+    seed: int
+    zero_one: dict
+
+
+# ---------------------------------------------------------------------------------------------------
+# one cell
+
+
+def _keys(param, name: str) -> list[str]:
+    if isinstance(param, str):
+        keys = [param]
+    elif isinstance(param, (list, tuple)) and param and all(isinstance(k, str) for k in param):
+        keys = list(param)
+    else:
+        raise InputError(f"{name} = {param!r}: a --set key (e.g. joints.B.clearance) or a list of "
+                         "keys set together")
+    return keys
+
+
+def param_label(keys) -> str:
+    """``["joints.A.clearance", "joints.B.clearance"]`` -> ``"joints.A,B.clearance"``."""
+    keys = [keys] if isinstance(keys, str) else list(keys)
+    if len(keys) == 1:
+        return keys[0]
+    parts = [k.split(".") for k in keys]
+    if len({len(p) for p in parts}) == 1:
+        diff = [i for i in range(len(parts[0])) if len({p[i] for p in parts}) > 1]
+        if len(diff) == 1:
+            i = diff[0]
+            p = list(parts[0])
+            p[i] = ",".join(q[i] for q in parts)
+            return ".".join(p)
+    return " = ".join(keys)
+
+
+def _cell_scene(job: _Job, x, y):
+    from .scene import apply_overrides, scene_from_dict
+    raw = copy.deepcopy(job.spec.raw)
+    apply_overrides(raw, {**{k: x for k in job.keys_x}, **{k: y for k in job.keys_y}})
+    return scene_from_dict(raw, job.spec.source)
+
+
+def _verdict(lam, unc, status) -> str:
+    if status != "ok" or not math.isfinite(lam):
+        return "failed"
+    u = unc if math.isfinite(unc) else 0.0
+    if lam - u > 0:
+        return "chaotic"
+    if lam + u < 0:
+        return "regular"
+    return "uncertain"
+
+
+def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
+    """Run one cell; never raises for a bad value or a failed run (status 'failed')."""
+    from .kernel import compile_scene
+    from .lyapunov import lyapunov_benettin
+    from .poincare import default_observables, period_of, stroboscopic
+    from .systems import SceneSystem
+    from .zero_one import zero_one_test
+    spec = job.spec
+    start = time.perf_counter()
+    notes = []
+    status, message = "ok", ""
+    lam = unc = per_rev = unc_rev = K = K_spread = math.nan
+    period = 0
+    obs = job.observable
+    y_final = z_final = None
+    table = None
+    try:
+        scene = _cell_scene(job, x, y)
+        kern = compile_scene(scene)
+        if obs is None:
+            obs = default_observables(kern)[0]
+        sec = stroboscopic(scene, transient_revs=spec.transient_revs, revs=spec.revs,
+                           observables=[obs], rtol=spec.rtol, kernel=kern,
+                           max_steps=spec.max_steps)
+        message = sec.message if not sec.success else ""
+        if not sec.success or len(sec.table) < spec.revs:
+            raise _CellFailed(f"section: {sec.message}")
+        table = sec.table.drop(columns=["t"]).rename(columns={obs: "value"})
+        table.insert(1, "observable", [obs] * len(table))
+        series = sec.table[obs].to_numpy(dtype=float)
+        period = period_of(series, tol=spec.period_tol, n_max=spec.n_max)
+        y_final, z_final = sec.y_final.tolist(), sec.z_final.tolist()
+        # the 0-1 test of the section series (no extra integration)
+        if spec.revs < MIN_ZERO_ONE:
+            notes.append(f"K not computed: {spec.revs} section points (the 0-1 test needs "
+                         f">= {MIN_ZERO_ONE})")
+        elif period == 1:
+            K, K_spread = 0.0, 0.0
+            notes.append("section is a fixed point (period 1): K = 0")
+        else:
+            zo = zero_one_test(series, **job.zero_one)
+            K, K_spread = zo.K, zo.spread
+        # the largest exponent, continuing from the end of the section
+        system = SceneSystem(scene, kernel=kern)
+        system.y0 = np.array(sec.y_final, dtype=float)
+        system.z0 = np.array(sec.z_final, dtype=float)
+        res = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
+                                rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
+        lam, unc = float(res.exponent), float(res.uncertainty)
+        per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
+    except Exception as e:        # noqa: BLE001 - a cell's failure is data, the map goes on
+        status = "failed"
+        message = (str(e) if isinstance(e, _CellFailed)
+                   else f"{type(e).__name__}: {' '.join(str(e).split())}")
+    if notes:
+        message = (message + "; " if message else "") + "; ".join(notes)
+    if table is None:
+        table = pd.DataFrame({"rev": np.array([-1], dtype=np.int64),
+                              "observable": [obs if obs is not None else ""],
+                              "value": np.array([np.nan])})
+    n = len(table)
+    head = {"x": [x] * n, "y": [y] * n, "ix": np.full(n, ix, dtype=np.int64),
+            "iy": np.full(n, iy, dtype=np.int64)}
+    summary = {"exponent": lam, "uncertainty": unc, "per_revolution": per_rev,
+               "uncertainty_per_revolution": unc_rev, "verdict": _verdict(lam, unc, status),
+               "K": K, "K_spread": K_spread, "period": int(period), "status": status,
+               "message": message}
+    table = pd.concat([pd.DataFrame(head), table.reset_index(drop=True)], axis=1)
+    for k, v in summary.items():
+        table[k] = [v] * n if isinstance(v, str) else np.full(n, v)
+    rec = dict(direction=DIRECTION, index=int(index), value=[x, y], status=status,
+               message=message, y_final=y_final, z_final=z_final,
+               wall=time.perf_counter() - start, table=table)
+    if spec.out is not None:
+        _bif._write_point(Path(spec.out), rec)
+    return rec
+
+
+class _CellFailed(Exception):
+    pass
+
+
+def _run_cell_batch(job: _Job, batch) -> list[dict]:
+    return [_run_cell(job, *cell) for cell in batch]
+
+
+# ---------------------------------------------------------------------------------------------------
+# the map
+
+
+def _summary(frames) -> pd.DataFrame:
+    if not frames:
+        return pd.DataFrame(columns=SUMMARY_COLUMNS)
+    df = pd.concat(frames, ignore_index=True)
+    first = df.drop_duplicates(["iy", "ix"]).sort_values(["iy", "ix"], kind="stable")
+    return first[SUMMARY_COLUMNS].reset_index(drop=True)
+
+
+def _sections(frames) -> pd.DataFrame:
+    df = pd.concat(frames, ignore_index=True)
+    return df.sort_values(["iy", "ix", "rev"], kind="stable").reset_index(drop=True)
+
+
+def _values(v, name):
+    v = v.tolist() if isinstance(v, np.ndarray) else list(v)
+    if not v:
+        raise InputError(f"{name}: give at least one value")
+    return [_bif._plain_value(a) for a in v]
+
+
+def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: int = 20,
+              revs: int = 100, rtol: float = 1e-10, workers: int | None = None, dask=None,
+              out=None, resume: bool = False, base_overrides=None,
+              lyapunov_revs: int | None = None, lyapunov_rtol: float | None = None,
+              d0: float | None = None, seed: int = 0, observable: str | None = None,
+              zero_one: dict | None = None, period_tol: float = 1e-6,
+              max_steps: int = 50_000_000, batch_size: int | None = None,
+              progress=None) -> pd.DataFrame:
+    """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
+
+    scene: Scene, built-in name or TOML path; base_overrides: ``--set`` values applied first.
+    param_x, param_y: a ``--set`` key, or a list of keys set to the same value (e.g.
+    ``["joints.A.friction.mu", "joints.B.friction.mu"]``); values_x, values_y: numbers.
+    transient_revs, revs, rtol, max_steps: the stroboscopic section of each cell (revs points).
+    rtol defaults to 1e-10, the Lyapunov module's: a looser tolerance can change the verdict (the
+    slider-crank at 50 rad/s with restitution 0.5 is period 1 with lambda = -0.35 +- 0.25 per
+    revolution at 1e-10, but wanders over the clearance with lambda = +3.1 +- 0.6 at 1e-9 and
+    +3.9 +- 1.5 at 1e-8, K ~ 1: the integration error decides the attractor there).
+    lyapunov_revs (default revs), lyapunov_rtol (default rtol), d0 (default 1e-5, scaled norm),
+    seed: the exponent (:func:`nld.lyapunov.lyapunov_benettin`), from the end of the section.
+    observable: the section observable of the 0-1 test (default ``<J>.ex`` of the first clearance
+    joint); zero_one: keyword arguments of :func:`nld.zero_one.zero_one_test` (default none:
+    100 frequencies, seed 0). period_tol: a section repeating to this relative tolerance is a fixed
+    point (K = 0).
+    workers, dask, batch_size, out, resume, progress: as :func:`nld.bifurcation.sweep`
+    (progress(done, total, record)).
+
+    Returns one row per cell (see the module docstring), also for resumed cells.
+    """
+    from . import __version__
+    from .poincare import _check_count, _load
+    from .provenance import git_hash
+    from .scene import scene_to_dict
+    keys_x, keys_y = _keys(param_x, "param_x"), _keys(param_y, "param_y")
+    if set(keys_x) & set(keys_y):
+        raise InputError(f"param_x and param_y share {sorted(set(keys_x) & set(keys_y))}")
+    sc = _load(scene, base_overrides)
+    raw = scene_to_dict(sc)
+    for k in keys_x + keys_y:
+        if _bif._current_value(raw, k) is _bif._MISSING:
+            raise InputError(f"parameter {k!r}: not a value of scene {sc.name!r} (a --set key such "
+                             "as joints.B.clearance or joints.B.friction.mu)")
+    vx, vy = _values(values_x, "values_x"), _values(values_y, "values_y")
+    transient_revs = _check_count("transient_revs", transient_revs, 0)
+    revs = _check_count("revs", revs, 1)
+    lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
+    if lyapunov_revs < 2:
+        raise InputError(f"lyapunov_revs = {lyapunov_revs}: need at least 2 revolutions")
+    if d0 is not None and not (isinstance(d0, (int, float)) and math.isfinite(d0) and d0 > 0):
+        raise InputError(f"d0 = {d0!r}: must be a positive number")
+    zero_one = dict(zero_one or {})
+    spec = _bif._Spec(raw=raw, source=sc.source, param=keys_x[0], transient_revs=transient_revs,
+                      revs=revs, observables=[observable] if observable else None,
+                      rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
+                      n_max=int(min(16, max(1, revs // 2))), lyapunov=True,
+                      lyapunov_revs=int(lyapunov_revs),
+                      lyapunov_rtol=float(rtol if lyapunov_rtol is None else lyapunov_rtol),
+                      out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"))
+    job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
+               d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one)
+    settings = dict(scene=sc.name, scene_parameters=raw, param=[keys_x, keys_y], values=[vx, vy],
+                    transient_revs=transient_revs, revs=revs, observables=spec.observables,
+                    rtol=spec.rtol, continuation=False, up_down=False, max_steps=spec.max_steps,
+                    period_tol=spec.period_tol, n_max=spec.n_max, lyapunov=True,
+                    lyapunov_revs=spec.lyapunov_revs, lyapunov_rtol=spec.lyapunov_rtol,
+                    d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one)
+    prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
+                integrator="dopri5", base_overrides=_plain_overrides(base_overrides),
+                lyapunov_method="benettin (nld.lyapunov.lyapunov_benettin)",
+                zero_one_method="Gottwald-Melbourne 2009 modified correlation (nld.zero_one)",
+                **settings)
+    cells = [(iy * len(vx) + ix, ix, iy, vx[ix], vy[iy]) for iy in range(len(vy))
+             for ix in range(len(vx))]
+    done: dict[int, dict] = {}
+    if out is not None:
+        outp = Path(out).expanduser()
+        _check_extra(outp, prov)
+        _bif._prepare_out(outp, prov, resume)
+        spec.out = str(outp)
+        if resume:
+            for p in outp.glob(f"point-{DIRECTION}-*.parquet"):
+                try:
+                    rec = _bif._read_point(p)
+                except Exception:         # noqa: BLE001 - an unreadable file: run the cell again
+                    continue
+                done[int(rec["index"])] = rec
+    elif resume:
+        raise InputError("resume=True needs out (the directory of the interrupted map)")
+    results = dict(done)
+    total = len(cells)
+    counter = [len(done)]
+
+    def finished(rec):
+        results[rec["index"]] = rec
+        counter[0] += 1
+        if progress is not None:
+            progress(counter[0], total, rec)
+
+    start = time.perf_counter()
+    todo = [c for c in cells if c[0] not in done]
+    if todo:
+        if dask is not None:
+            _run_dask(job, todo, dask, batch_size, finished)
+        else:
+            _run_local(job, todo, workers, batch_size, finished)
+    df = _summary([results[c[0]]["table"] for c in cells if c[0] in results])
+    prov["wall"] = time.perf_counter() - start
+    prov["cells_run"] = len(todo)
+    df.attrs.update(provenance=prov, param_x=keys_x, param_y=keys_y,
+                    wall_s={int(k): float(r.get("wall", math.nan)) for k, r in results.items()})
+    return df
+
+
+def _plain_overrides(ov):
+    if ov is None:
+        return []
+    if isinstance(ov, str):
+        return [ov]
+    if isinstance(ov, dict):
+        return [f"{k}={v}" for k, v in ov.items()]
+    return [str(o) if isinstance(o, str) else f"{o[0]}={o[1]}" for o in ov]
+
+
+def _check_extra(outp: Path, prov: dict) -> None:
+    """The settings bifurcation's check does not cover must match too on resume."""
+    import json
+    pp = outp / _bif.PROVENANCE
+    if not pp.is_file():
+        return
+    try:
+        old = json.loads(pp.read_text())
+    except ValueError:
+        return
+    for k in _EXTRA_SETTINGS:
+        new = json.loads(json.dumps(prov.get(k), default=_bif._json_default))
+        if json.dumps(old.get(k), sort_keys=True) != json.dumps(new, sort_keys=True):
+            raise InputError(f"out = {str(outp)!r} holds a different run ({k} differs): use another "
+                             "directory, or the same settings to resume")
+
+
+def _run_local(job, todo, workers, batch_size, finished):
+    import multiprocessing as mp
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"workers = {workers!r}: must be an integer >= 1")
+    workers = min(workers, len(todo))
+    if workers == 1:
+        for cell in todo:
+            finished(_run_cell(job, *cell))
+        return
+    batches = _bif._batches(todo, workers, batch_size)
+    # each worker loads the kernel once (bifurcation's initializer: the cells share one structure)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                             initializer=_bif._warm_worker, initargs=(job.spec, todo[0][3])) as ex:
+        futures = [ex.submit(_run_cell_batch, job, b) for b in batches]
+        try:
+            for fut in as_completed(futures):
+                for rec in fut.result():
+                    finished(rec)
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def _run_dask(job, todo, dask, batch_size, finished):
+    from distributed import as_completed as dask_completed
+    client, own = _bif._dask_client(dask)
+    try:
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        client.run(_bif._warm_worker, job.spec, todo[0][3])
+        wjob = copy.copy(job)
+        wjob.spec = copy.copy(job.spec)
+        wjob.spec.out = None          # this process writes the files
+        futures = [client.submit(_run_cell_batch, wjob, b, pure=False)
+                   for b in _bif._batches(todo, n_workers, batch_size)]
+        for fut in dask_completed(futures):
+            for rec in fut.result():
+                if job.spec.out is not None:
+                    _bif._write_point(Path(job.spec.out), rec)
+                finished(rec)
+    finally:
+        if own:
+            client.close()
+
+
+def load_chaos_map(out, *, sections: bool = False) -> pd.DataFrame:
+    """The finished cells of a map directory: one row per cell (as :func:`chaos_map`), or with
+    ``sections=True`` every section point (columns ``x, y, ix, iy, rev, observable, value`` and the
+    cell's results). ``attrs["provenance"]`` holds provenance.json."""
+    import json
+    out = Path(out).expanduser()
+    if not out.is_dir():
+        raise InputError(f"chaos map directory not found: {out}")
+    pp = out / _bif.PROVENANCE
+    prov = json.loads(pp.read_text()) if pp.is_file() else {}
+    recs = [_bif._read_point(p) for p in sorted(out.glob(f"point-{DIRECTION}-*.parquet"))]
+    frames = [r["table"] for r in recs]
+    df = (_sections(frames) if frames else pd.DataFrame()) if sections else _summary(frames)
+    param = prov.get("param") or [[], []]
+    df.attrs.update(provenance=prov, param_x=param[0], param_y=param[1],
+                    wall_s={int(r["index"]): float(r.get("wall", math.nan)) for r in recs})
+    return df
+
+
+# ---------------------------------------------------------------------------------------------------
+# plot
+
+
+def _edges(v: np.ndarray, log: bool) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    if v.size == 1:
+        return np.array([v[0] * 0.9, v[0] * 1.1]) if log else np.array([v[0] - 0.5, v[0] + 0.5])
+    if log:
+        lv = np.log(v)
+        mid = 0.5 * (lv[1:] + lv[:-1])
+        return np.exp(np.concatenate([[2 * lv[0] - mid[0]], mid, [2 * lv[-1] - mid[-1]]]))
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+
+
+def _is_log(v) -> bool:
+    v = np.asarray(v, dtype=float)
+    if v.size < 3 or np.any(v <= 0):
+        return False
+    r = v[1:] / v[:-1]
+    d = np.diff(v)
+    return bool(np.allclose(r, r[0], rtol=1e-6) and not np.allclose(d, d[0], rtol=1e-6))
+
+
+def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: str | None = None,
+                   x_label: str | None = None, y_label: str | None = None, x_scale: float = 1.0,
+                   y_scale: float = 1.0, x_log: bool | None = None, y_log: bool | None = None,
+                   colorbar: bool = True, annotate: bool = True):
+    """The map of a :func:`chaos_map` table; returns the Figure.
+
+    value="lambda": pcolormesh of the exponent per crank revolution (diverging colours, 0 white),
+      the lambda = 0 contour (the onset boundary, drawn through the cell centres, linear
+      interpolation; only where both neighbours are finite), cells whose sign is not established
+      (|lambda| <= uncertainty) hatched "//", failed cells grey with an "x".
+    value="K": the 0-1 test's K (0 regular ... 1 chaotic), with the K = 0.5 contour; cells
+      without K grey.
+    x_scale, y_scale: factors for the axes (e.g. 1e3 with a label in mm); x_log, y_log: log axes
+      (default: when the values are geometrically spaced). annotate: print each cell's value.
+    Axis labels default to the parameters (``attrs["param_x"]``) with their units.
+    """
+    from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.patches import Rectangle
+    from .plots import _figure, unit_of
+    if value not in ("lambda", "K"):
+        raise InputError(f"value = {value!r}: 'lambda' or 'K'")
+    fig, ax = _figure(ax)
+    xs = np.sort(df["x"].astype(float).unique())
+    ys = np.sort(df["y"].astype(float).unique())
+    ix = np.searchsorted(xs, df["x"].astype(float))
+    iy = np.searchsorted(ys, df["y"].astype(float))
+    Z = np.full((ys.size, xs.size), np.nan)
+    U = np.full_like(Z, np.nan)
+    failed = np.zeros(Z.shape, dtype=bool)
+    col = "per_revolution" if value == "lambda" else "K"
+    Z[iy, ix] = df[col].astype(float).to_numpy()
+    if value == "lambda":
+        U[iy, ix] = df["uncertainty_per_revolution"].astype(float).to_numpy()
+    failed[iy, ix] = (df["status"] != "ok").to_numpy() | ~np.isfinite(Z[iy, ix])
+    x_log = _is_log(xs) if x_log is None else x_log
+    y_log = _is_log(ys) if y_log is None else y_log
+    xe, ye = _edges(xs, x_log) * x_scale, _edges(ys, y_log) * y_scale
+    if value == "lambda":
+        m = np.nanmax(np.abs(Z)) if np.any(np.isfinite(Z)) else 1.0
+        m = m if m > 0 else 1.0
+        norm = TwoSlopeNorm(vcenter=0.0, vmin=-m, vmax=m)
+        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), cmap="RdBu_r", norm=norm,
+                             shading="flat")
+        clabel = "λ₁ per crank revolution (−)"
+        level, ccol = 0.0, "black"
+    else:
+        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), cmap="viridis", vmin=0.0, vmax=1.0,
+                             shading="flat")
+        clabel = "0-1 test K (−)"
+        level, ccol = 0.5, "white"
+    ax.set_facecolor("#d0d0d0")          # failed / missing cells
+    if colorbar:
+        fig.colorbar(mesh, ax=ax, label=clabel)
+    xc, yc = xs * x_scale, ys * y_scale
+    if xs.size >= 2 and ys.size >= 2 and np.any(np.isfinite(Z)):
+        zmin, zmax = np.nanmin(Z), np.nanmax(Z)
+        if zmin < level < zmax:
+            ax.contour(xc, yc, np.ma.masked_invalid(Z), levels=[level], colors=ccol,
+                       linewidths=1.8)
+            ax.plot([], [], color=ccol, lw=1.8,
+                    label="λ₁ = 0 (onset of chaos)" if value == "lambda" else "K = 0.5")
+    for j in range(ys.size):
+        for i in range(xs.size):
+            w, h = xe[i + 1] - xe[i], ye[j + 1] - ye[j]
+            if failed[j, i]:
+                ax.add_patch(Rectangle((xe[i], ye[j]), w, h, fill=False, hatch="xx",
+                                       edgecolor="#606060", lw=0))
+            elif value == "lambda" and abs(Z[j, i]) <= U[j, i]:
+                ax.add_patch(Rectangle((xe[i], ye[j]), w, h, fill=False, hatch="//",
+                                       edgecolor="#404040", lw=0))
+            if annotate and np.isfinite(Z[j, i]):
+                txt = (f"{Z[j, i]:.2g}\n±{U[j, i]:.1g}" if value == "lambda" and np.isfinite(U[j, i])
+                       else f"{Z[j, i]:.2f}")
+                xm = math.sqrt(xe[i] * xe[i + 1]) if x_log else 0.5 * (xe[i] + xe[i + 1])
+                ym = math.sqrt(ye[j] * ye[j + 1]) if y_log else 0.5 * (ye[j] + ye[j + 1])
+                ax.text(xm, ym, txt, ha="center", va="center", fontsize=6.5, color="black")
+    if value == "lambda":
+        ax.add_patch(Rectangle((0, 0), 0, 0, fill=False, hatch="//", edgecolor="#404040",
+                               label="|λ₁| ≤ uncertainty"))
+    if failed.any():
+        ax.add_patch(Rectangle((0, 0), 0, 0, fill=False, hatch="xx", edgecolor="#606060",
+                               label="failed / no value"))
+    if x_log:
+        ax.set_xscale("log")
+    if y_log:
+        ax.set_yscale("log")
+    ax.set_xlim(xe[0], xe[-1])
+    ax.set_ylim(ye[0], ye[-1])
+    px, py = df.attrs.get("param_x") or ["x"], df.attrs.get("param_y") or ["y"]
+    ax.set_xlabel(x_label or f"{param_label(px)} ({unit_of(px[0]) or '−'})")
+    ax.set_ylabel(y_label or f"{param_label(py)} ({unit_of(py[0]) or '−'})")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", fontsize=7, framealpha=0.85)
+    ax.grid(False)
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+# ---------------------------------------------------------------------------------------------------
+# command line (registered by nld.cli: ``chaos_map.add_arguments(sub)``, see docs/analysis.md)
+
+
+def add_arguments(subparsers):
+    """Add ``nld chaos-map`` to the sub-commands of nld's parser; returns the sub-parser."""
+    from .bifurcation import _values_arg
+    from .cli import _number_arg, _rtol_arg
+    from .poincare import _count_arg
+    sp = subparsers.add_parser(
+        "chaos-map", help="largest Lyapunov exponent over a grid of two scene parameters",
+        description="Two-parameter chaos map: for every cell of the grid --x-values x --y-values "
+                    "(any two --set keys, e.g. joints.B.clearance and joints.B.friction.mu) a "
+                    "stroboscopic section, the largest Lyapunov exponent (Benettin) from its end "
+                    "and the 0-1 test of the section; one parquet file per cell in --out DIR "
+                    "(resumable), optionally a heat map with the onset boundary lambda = 0.")
+    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
+    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a scene value before the grid, e.g. driver.speed=300 (repeatable)")
+    sp.add_argument("--x", required=True, metavar="KEY[,KEY...]",
+                    help="x parameter: a --set key, or comma-separated keys set to the same value "
+                         "(e.g. joints.A.clearance,joints.B.clearance)")
+    sp.add_argument("--x-values", required=True, type=_values_arg,
+                    metavar="START:STOP:NUM|V1,V2,...", help="x values (ends included) or a list")
+    sp.add_argument("--y", required=True, metavar="KEY[,KEY...]", help="y parameter (as --x)")
+    sp.add_argument("--y-values", required=True, type=_values_arg,
+                    metavar="START:STOP:NUM|V1,V2,...", help="y values")
+    sp.add_argument("--out", required=True, metavar="DIR",
+                    help="output directory (parquet per cell + provenance.json)")
+    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=20,
+                    metavar="N", help="revolutions discarded per cell (default 20)")
+    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=100, metavar="N",
+                    help="section points per cell (default 100; the 0-1 test needs >= 30)")
+    sp.add_argument("--lyapunov-revs", type=_count_arg("--lyapunov-revs", 2), default=None,
+                    metavar="N", help="revolutions of the exponent estimate (default --revs)")
+    sp.add_argument("--rtol", type=_rtol_arg, default=1e-10, metavar="R",
+                    help="relative tolerance (default 1e-10; see docs/analysis.md before raising it)")
+    sp.add_argument("--lyapunov-rtol", type=_rtol_arg, default=None, metavar="R",
+                    help="relative tolerance of the exponent (default --rtol)")
+    sp.add_argument("--d0", type=_number_arg("--d0"), default=None, metavar="D0",
+                    help="initial separation, scaled norm (default 1e-5)")
+    sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
+    sp.add_argument("--observable", default=None, metavar="COL",
+                    help="section observable of the 0-1 test (default <first clearance joint>.ex)")
+    sp.add_argument("--workers", type=_count_arg("--workers", 1), default=None, metavar="N",
+                    help="local worker processes (default: CPU count)")
+    sp.add_argument("--dask", default=None, metavar="ADDRESS",
+                    help="run on a Dask cluster at this scheduler address instead")
+    sp.add_argument("--resume", action="store_true", help="skip the cells already in --out")
+    sp.add_argument("--plot", default=None, metavar="FILE",
+                    help="also write the heat map (lambda per revolution, lambda = 0 contour) to "
+                         "FILE (.png, .pdf, .svg)")
+    sp.set_defaults(func=cli_chaos_map)
+    return sp
+
+
+def _split_keys(text: str) -> list[str]:
+    keys = [k.strip() for k in str(text).split(",") if k.strip()]
+    if not keys:
+        raise InputError(f"parameter = {text!r}: give a --set key such as joints.B.clearance")
+    return keys
+
+
+def cli_chaos_map(args) -> int:
+    """``nld chaos-map``: run the map, print one line per cell and a summary; exit 1 only when
+    every cell failed."""
+    import sys
+    kx, ky = _split_keys(args.x), _split_keys(args.y)
+    lx, ly = param_label(kx), param_label(ky)
+    if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".pdf", ".svg"):
+        raise InputError(f"--plot = {args.plot!r}: give a .png, .pdf or .svg file")
+
+    def progress(k, n, rec):
+        t = rec["table"].iloc[0]
+        if rec["status"] == "ok":
+            res = (f"lambda = {t['per_revolution']:.3g} +- {t['uncertainty_per_revolution']:.2g} "
+                   f"per rev ({t['verdict']})" + (f", K = {t['K']:.2f}" if math.isfinite(t["K"]) else ""))
+        else:
+            res = f"failed: {rec['message']}"
+        x, y = rec["value"]
+        print(f"[{k}/{n}] {lx} = {x!s}, {ly} = {y!s}: {res} ({rec['wall']:.3g} s)", flush=True)
+
+    df = chaos_map(args.scene, kx if len(kx) > 1 else kx[0], args.x_values,
+                   ky if len(ky) > 1 else ky[0], args.y_values,
+                   transient_revs=args.transient_revs, revs=args.revs,
+                   lyapunov_revs=args.lyapunov_revs, rtol=args.rtol,
+                   lyapunov_rtol=args.lyapunov_rtol, d0=args.d0, seed=args.seed,
+                   observable=args.observable, workers=args.workers, dask=args.dask,
+                   out=args.out, resume=args.resume, base_overrides=args.overrides,
+                   progress=progress)
+    counts = df["verdict"].value_counts()
+    print(f"wrote {len(df)} cells to {args.out} (read with nld.chaos_map.load_chaos_map): "
+          + ", ".join(f"{counts.get(v, 0)} {v}" for v in ("chaotic", "regular", "uncertain", "failed")))
+    if args.plot is not None:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig = chaos_map_plot(df, title=f"{df.attrs['provenance'].get('scene', args.scene)}: "
+                                       "largest Lyapunov exponent")
+        fig.savefig(args.plot, dpi=150, bbox_inches="tight")
+        plt.close(fig)
+        print(f"wrote {args.plot}")
+    n_failed = int((df["status"] != "ok").sum())
+    if n_failed:
+        print(f"nld: warning: {n_failed} of {len(df)} cells failed (status 'failed' in the table)",
+              file=sys.stderr)
+    return 1 if n_failed == len(df) else 0

@@ -1,0 +1,208 @@
+"""Two-parameter chaos maps (nld.chaos_map): a 2 x 2 clearance x friction grid with a few
+revolutions per cell; a map killed after two cells and resumed on the local pool (2 workers) gives
+the uninterrupted table; the same map on Dask; failing cells; verdicts against the exponent signs;
+the heat map with its onset contour; the command line."""
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nld.chaos_map import SUMMARY_COLUMNS, chaos_map, chaos_map_plot, load_chaos_map
+from nld.errors import InputError
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = "slider_crank_olyaei"              # Flores slider-crank with Ambrosio friction at B, 5000 rpm
+PX, VX = "joints.B.clearance", [2e-4, 5e-4]
+PY, VY = "joints.B.friction.mu", [0.0, 0.1]
+KW = dict(transient_revs=2, revs=4, lyapunov_revs=4, rtol=1e-8)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The uninterrupted map, cell by cell in this process."""
+    out = tmp_path_factory.mktemp("ref") / "map"
+    return chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=out, **KW), out
+
+
+def test_table_files_provenance_and_verdicts(reference):
+    df, out = reference
+    assert list(df.columns) == SUMMARY_COLUMNS
+    assert list(zip(df.x, df.y)) == [(x, y) for y in VY for x in VX]       # y outer, x inner
+    assert list(df.ix) == [0, 1, 0, 1] and list(df.iy) == [0, 0, 1, 1]
+    assert (df.status == "ok").all()
+    # the verdict is the sign of the exponent where the uncertainty allows one
+    for r in df.itertuples():
+        assert r.per_revolution == pytest.approx(r.exponent * 2 * math.pi / 523.5987755982989)
+        want = ("chaotic" if r.exponent - r.uncertainty > 0 else
+                "regular" if r.exponent + r.uncertainty < 0 else "uncertain")
+        assert r.verdict == want
+    # friction-free 5000 rpm is chaotic at both clearances (lambda ~ 10 per revolution)
+    assert (df[df.y == 0.0].verdict == "chaotic").all()
+    assert (df[df.y == 0.0].per_revolution > 3).all()
+    # 4 section points: no 0-1 test, and the message says why
+    assert df.K.isna().all() and df.message.str.contains("K not computed").all()
+    files = sorted(p.name for p in out.iterdir())
+    assert files == [f"point-grid-{i:05d}.parquet" for i in range(4)] + ["provenance.json"]
+    prov = json.loads((out / "provenance.json").read_text())
+    assert prov["kind"] == "chaos_map" and prov["param"] == [[PX], [PY]]
+    assert prov["values"] == [VX, VY] and prov["rtol"] == 1e-8 and prov["lyapunov_revs"] == 4
+    for key in ("nld_version", "git_hash", "scene", "scene_parameters", "transient_revs", "revs",
+                "lyapunov_rtol", "d0", "seed"):
+        assert key in prov, key
+    back = load_chaos_map(out)
+    pd.testing.assert_frame_equal(back, df)
+    assert back.attrs["param_x"] == [PX] and set(back.attrs["wall_s"]) == {0, 1, 2, 3}
+    sec = load_chaos_map(out, sections=True)
+    assert len(sec) == 16 and list(sec.rev.iloc[:4]) == [2, 3, 4, 5]
+    assert (sec.observable == "B.ex").all() and sec.value.abs().max() <= 5e-4 * 1.05
+
+
+def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
+    """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + Benettin from its end."""
+    from nld.lyapunov import lyapunov_benettin
+    from nld.poincare import stroboscopic
+    from nld.systems import SceneSystem
+    df, out = reference
+    ov = [f"{PX}=5e-4", f"{PY}=0.1"]
+    sec = stroboscopic(SCENE, transient_revs=2, revs=4, observables=["B.ex"], rtol=1e-8,
+                       overrides=ov)
+    s = SceneSystem(SCENE, ov)
+    s.y0, s.z0 = sec.y_final.copy(), sec.z_final.copy()
+    lam = lyapunov_benettin(s, transient=0.0, total=4 * s.period, rtol=1e-8)
+    row = df[(df.ix == 1) & (df.iy == 1)].iloc[0]
+    assert row.exponent == lam.exponent and row.uncertainty == lam.uncertainty
+    pts = load_chaos_map(out, sections=True)
+    np.testing.assert_array_equal(pts[(pts.ix == 1) & (pts.iy == 1)].value, sec.table["B.ex"])
+
+
+def test_killed_map_resumed_equals_uninterrupted(reference, tmp_path):
+    """Killed after two cells, resumed on the local pool of 2 workers: the same table, and the
+    finished cells are not run again."""
+    ref, _ = reference
+    out = tmp_path / "killed"
+    code = ("from nld.chaos_map import chaos_map\n"
+            f"chaos_map({SCENE!r}, {PX!r}, {VX!r}, {PY!r}, {VY!r}, workers=1, out={str(out)!r}, "
+            f"**{KW!r})\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, "-c", code], env=env, cwd=ROOT)
+    deadline = time.monotonic() + 120
+    try:
+        while len(list(out.glob("point-*.parquet"))) < 2 and proc.poll() is None \
+                and time.monotonic() < deadline:
+            time.sleep(0.01)
+    finally:
+        proc.kill()
+        proc.wait()
+    done = sorted(out.glob("point-*.parquet"))
+    assert 2 <= len(done) < 4, "the map was not interrupted"
+    assert not list(out.glob(".*.tmp"))
+    stamps = {p.name: p.stat().st_mtime_ns for p in done}
+    df = chaos_map(SCENE, PX, VX, PY, VY, workers=2, out=out, resume=True, **KW)
+    pd.testing.assert_frame_equal(df, ref)
+    pd.testing.assert_frame_equal(load_chaos_map(out), ref)
+    assert all(p.stat().st_mtime_ns == stamps[p.name] for p in done)
+    assert df.attrs["provenance"]["cells_run"] == 4 - len(done)
+    # a different setting is refused on resume
+    with pytest.raises(InputError, match="differs"):
+        chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=out, resume=True, seed=1, **KW)
+    with pytest.raises(InputError, match="already holds"):
+        chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=out, **KW)
+
+
+def test_dask_gives_the_same_table(reference, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    ref, _ = reference
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        dk = chaos_map(SCENE, PX, VX, PY, VY, dask=client, out=tmp_path / "dask", batch_size=1,
+                       **KW)
+    pd.testing.assert_frame_equal(dk, ref)
+    pd.testing.assert_frame_equal(load_chaos_map(tmp_path / "dask"), ref)
+
+
+def test_failing_cells_are_recorded_and_the_map_goes_on(tmp_path):
+    """A negative clearance is refused by the scene check, and a run out of steps fails: both are
+    'failed' cells with their message; the other cells run."""
+    df = chaos_map(SCENE, PX, [-1e-4, 5e-4], PY, [0.1], workers=1, out=tmp_path / "f",
+                   transient_revs=1, revs=2, lyapunov_revs=2, rtol=1e-8)
+    assert list(df.status) == ["failed", "ok"] and list(df.verdict)[0] == "failed"
+    assert "SceneError" in df.message[0] and "clearance" in df.message[0]
+    assert df.exponent.isna()[0] and np.isfinite(df.exponent[1])
+    assert len(list((tmp_path / "f").glob("point-grid-*.parquet"))) == 2
+    df = chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, transient_revs=1, revs=2,
+                   lyapunov_revs=2, rtol=1e-8, max_steps=100)
+    assert df.status[0] == "failed" and "max_steps" in df.message[0]
+
+
+def test_bad_input():
+    with pytest.raises(InputError, match="not a value"):
+        chaos_map(SCENE, "joints.B.nonsense", [1.0], PY, [0.0], workers=1)
+    with pytest.raises(InputError, match="share"):
+        chaos_map(SCENE, PX, [1e-4], PX, [2e-4], workers=1)
+    with pytest.raises(InputError, match="resume"):
+        chaos_map(SCENE, PX, [1e-4], PY, [0.0], resume=True)
+
+
+def test_plot_draws_the_onset_contour(reference):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    df, _ = reference
+    fig = chaos_map_plot(df)
+    ax = fig.axes[0]
+    labels = ax.get_legend_handles_labels()[1]
+    lam = df.set_index(["ix", "iy"]).per_revolution
+    assert lam[(1, 1)] < 0 < lam[(0, 1)]             # at mu = 0.1 the onset lies between the clearances
+    assert "λ₁ = 0 (onset of chaos)" in labels
+    cs = next(c for c in ax.collections if type(c).__name__ == "QuadContourSet")
+    v = np.concatenate([p.vertices for p in cs.get_paths()])
+    # the contour crosses the row mu = 0.1 where lambda interpolates linearly to zero
+    x0 = VX[0] + (VX[1] - VX[0]) * lam[(0, 1)] / (lam[(0, 1)] - lam[(1, 1)])
+    on_row = v[np.isclose(v[:, 1], 0.1)]
+    assert len(on_row) == 1 and on_row[0, 0] == pytest.approx(x0, rel=1e-9)
+    assert ax.get_xlabel() == "joints.B.clearance (m)"
+    plt.close(fig)
+    # a map with a failed cell is drawn too (grey, hatched)
+    bad = df.copy()
+    bad.loc[0, ["status", "verdict"]] = "failed"
+    bad.loc[0, ["exponent", "per_revolution"]] = np.nan
+    fig = chaos_map_plot(bad, annotate=False)
+    assert "failed / no value" in fig.axes[0].get_legend_handles_labels()[1]
+    plt.close(fig)
+
+
+def test_cli_chaos_map(monkeypatch, capsys, tmp_path):
+    import argparse
+    from nld import chaos_map as cm, cli
+    build = cli.build_parser
+
+    def build_parser():
+        p = build()
+        sub = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
+        if "chaos-map" not in sub.choices:
+            cm.add_arguments(sub)
+        return p
+    monkeypatch.setattr(cli, "build_parser", build_parser)
+    out = tmp_path / "cli"
+    args = ["chaos-map", SCENE, "--x", PX, "--x-values", "5e-4", "--y", PY, "--y-values", "0:0.1:2",
+            "--transient-revs", "1", "--revs", "2", "--lyapunov-revs", "2", "--rtol", "1e-8",
+            "--workers", "1", "--out", str(out)]
+    assert cli.main(args + ["--plot", str(tmp_path / "m.png")]) == 0
+    text = capsys.readouterr().out
+    assert "[2/2] joints.B.clearance = 0.0005, joints.B.friction.mu = 0.1: lambda = " in text
+    assert (tmp_path / "m.png").stat().st_size > 1000
+    df = load_chaos_map(out)
+    assert list(df.y) == [0.0, 0.1] and (df.status == "ok").all()
+    assert cli.main(args + ["--resume"]) == 0 and "[" not in capsys.readouterr().out
+    assert cli.main(args) == 2 and "already holds" in capsys.readouterr().err
+    # every cell failed: exit status 1
+    assert cli.main(["chaos-map", SCENE, "--x", PX, "--x-values", "-1", "--y", PY, "--y-values", "0",
+                     "--revs", "2", "--workers", "1", "--out", str(tmp_path / "bad")]) == 1
