@@ -1,0 +1,107 @@
+"""Study flores2004 (studies/flores2004.py) in quick mode: files, pages, tables against the stored series.
+
+Quick mode: 3 clearances x (2 transient + 10 revolutions) at rtol 1e-8, 2880 samples per revolution,
+and the ideal twin; about 15-20 s on two cores with a warm kernel cache (one compilation otherwise).
+"""
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nld.io import load_table
+from nld.report import Report
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDY = ROOT / "studies" / "flores2004.py"
+
+
+def load_study():
+    spec = importlib.util.spec_from_file_location("flores2004_study_under_test", STUDY)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def count_pages(path) -> int:
+    try:
+        from pypdf import PdfReader
+    except ImportError:
+        return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", path.read_bytes()))
+    return len(PdfReader(str(path)).pages)
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    study = load_study()
+    out = tmp_path_factory.mktemp("flores2004")
+    pdf = study.main(quick=True, out_dir=out)
+    return study, out, pdf
+
+
+def test_quick_writes_pdf_and_data(quick_run):
+    study, out, pdf = quick_run
+    assert pdf == out / "flores2004.pdf" and pdf.is_file()
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF")
+    assert b"quick" in data                          # PDF keywords carry the mode
+    # title page(s) + intro, key-number table, findings, why they differ, slider acceleration,
+    # crank moment, orbits, contact force, 2 clearance-size pages, peaks vs clearance,
+    # per-revolution table, run statistics
+    title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
+    assert count_pages(pdf) == title_pages + 13
+    for f in ("flores2004.parquet", "flores2004_summary.csv", "flores2004_per_rev.csv"):
+        assert (out / f).is_file(), f
+
+
+def test_parquet_cases_and_provenance(quick_run):
+    study, out, _ = quick_run
+    df, prov = load_table(out / "flores2004.parquet")
+    names = [study.case_name(c) for c in study.CLEARANCES]
+    assert set(df["case"]) == set(names) | {"ideal"}
+    assert prov["mode"] == "quick" and prov["scene"] == "slider_crank"
+    assert prov["rtol"] == study.QUICK["rtol"]
+    assert "git_hash" in prov and "scene_parameters" in prov
+    n = (df["case"] == "ideal").sum()
+    assert n == study.QUICK["plotted_revs"] * study.QUICK["samples_per_rev"] + 1
+    for name in names:
+        assert prov["cases"][name]["success"], prov["cases"][name]["message"]
+        rows = df[df["case"] == name]
+        assert len(rows) == n                        # same output times as the ideal twin
+        assert np.allclose(rows["t"].to_numpy(), df.loc[df["case"] == "ideal", "t"].to_numpy())
+        assert set(np.unique(rows["mode"])) <= {0, 1, 2}
+
+
+def test_summary_equals_max_of_stored_series(quick_run):
+    study, out, _ = quick_run
+    df, _ = load_table(out / "flores2004.parquet")
+    s, _ = load_table(out / "flores2004_summary.csv")
+    s = s.set_index("case")
+    for name in list(s.index):
+        rows = df[df["case"] == name]
+        assert s.loc[name, "peak_abs_slider_ax_m_s2"] == pytest.approx(rows["slider.ax"].abs().max(), rel=1e-12)
+        assert s.loc[name, "peak_abs_torque_Nm"] == pytest.approx(rows["driver.torque"].abs().max(), rel=1e-12)
+        fn = rows["B.F"] if name == "ideal" else rows["B.Fn"]
+        assert s.loc[name, "peak_Fn_N"] == pytest.approx(fn.max(), rel=1e-12)
+        if name != "ideal":
+            mode = rows["mode"].to_numpy()
+            assert s.loc[name, "free_flight_pct"] == pytest.approx(100 * np.mean(mode == 0), rel=1e-12)
+            assert s.loc[name, "max_penetration_m"] == pytest.approx(rows["B.penetration"].max(), rel=1e-12)
+    # impacts make the peaks exceed the ideal-joint ones at the benchmark clearance
+    bench = study.case_name(study.BENCHMARK_CLEARANCE)
+    assert s.loc[bench, "ax_over_ideal"] > 1 and s.loc[bench, "Fn_over_ideal"] > 1
+
+
+def test_per_revolution_peaks(quick_run):
+    study, out, _ = quick_run
+    df, _ = load_table(out / "flores2004.parquet")
+    pr, _ = load_table(out / "flores2004_per_rev.csv")
+    for name, g in pr.groupby("case"):
+        assert sorted(g["revolution"]) == list(range(study.QUICK["stats_revs"]))
+        # the plotted revolutions are the stored window: their peaks are the window's peak
+        rows = df[df["case"] == name]
+        assert g.loc[g["plotted"], "peak_abs_slider_ax_m_s2"].max() == pytest.approx(
+            rows["slider.ax"].abs().max(), rel=1e-12)

@@ -1,0 +1,145 @@
+"""Study olyaei2012 (studies/olyaei2012.py) in quick mode: files, pages, tables against the stored data.
+
+Quick mode: 3 speeds, 2 clearances, 2 friction coefficients, each 10 transient + 12 section revolutions
+at rtol 1e-7 with the exponent over 10 revolutions, then two showcase states (10 + 30 revolutions);
+about 10 s on two cores with a warm kernel cache.
+"""
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nld.io import load_table
+from nld.report import Report
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDY = ROOT / "studies" / "olyaei2012.py"
+
+
+def load_study():
+    spec = importlib.util.spec_from_file_location("olyaei2012_study_under_test", STUDY)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def count_pages(path) -> int:
+    try:
+        from pypdf import PdfReader
+    except ImportError:
+        return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", path.read_bytes()))
+    return len(PdfReader(str(path)).pages)
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    study = load_study()
+    out = tmp_path_factory.mktemp("olyaei2012")
+    pdf = study.main(quick=True, out_dir=out)
+    return study, out, pdf
+
+
+def test_quick_writes_pdf_and_data(quick_run):
+    study, out, pdf = quick_run
+    assert pdf == out / "olyaei2012.pdf" and pdf.is_file()
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF") and b"quick" in data
+    _, prov = load_table(out / "olyaei2012.parquet")
+    states = [k for k, v in prov["states"].items() if v]
+    # title page(s) + 3 text pages, summary table, 3 sweep figures, tolerance-check table, (the two
+    # state figures when a regular or a chaotic state was found), run statistics
+    title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
+    assert count_pages(pdf) == title_pages + 9 + (2 if states else 0)
+    for f in ("olyaei2012.parquet", "olyaei2012_points.csv", "olyaei2012_summary.csv",
+              "olyaei2012_tolcheck.csv"):
+        assert (out / f).is_file(), f
+    assert (out / "olyaei2012_sections.parquet").is_file() == bool(states)
+
+
+def test_sweeps_stored_with_provenance(quick_run):
+    study, out, _ = quick_run
+    df, prov = load_table(out / "olyaei2012.parquet")
+    assert prov["mode"] == "quick" and prov["scene"] == "slider_crank_olyaei"
+    assert prov["rtol"] == study.QUICK["rtol"] and "git_hash" in prov
+    assert set(df["case"]) == set(study.SWEEPS)
+    for name, key in (("speed", "speeds"), ("clearance", "clearances"), ("friction", "frictions")):
+        part = df[df["case"] == name]
+        assert np.allclose(sorted(part["value"].astype(float).unique()), sorted(study.QUICK[key]))
+        ok = part[part["status"] == "ok"]
+        # every finished point has its section and an exponent
+        assert (ok.groupby("index")["rev"].count() == study.QUICK["revs"]).all()
+        assert np.isfinite(ok["lyapunov"]).all()
+
+
+def test_points_and_summary_follow_from_the_sweeps(quick_run):
+    study, out, _ = quick_run
+    df, _ = load_table(out / "olyaei2012.parquet")
+    pts, _ = load_table(out / "olyaei2012_points.csv")
+    summ, _ = load_table(out / "olyaei2012_summary.csv")
+    summ = summ.set_index("sweep")
+    for name, g in pts.groupby("sweep"):
+        part = df[df["case"] == name].drop_duplicates("index").set_index("index")
+        speed = g["value"].to_numpy() if name == "speed" else np.full(len(g), study.SPEED0)
+        lam = part.loc[g["index"], "lyapunov"].to_numpy(float)
+        assert np.allclose(g["lambda_per_rev"], lam * 2 * np.pi / speed, rtol=1e-12)
+        for lam_r, unc, verdict in zip(g["lambda_per_rev"], g["lambda_unc_per_rev"], g["verdict"]):
+            assert verdict == ("chaotic" if lam_r - unc > 0 else "regular" if lam_r + unc < 0 else "uncertain")
+        s = summ.loc[name]
+        assert s["points"] == len(g)
+        assert s["max_lambda_per_rev"] == pytest.approx(g["lambda_per_rev"].max(), rel=1e-12)
+        assert s["min_lambda_per_rev"] == pytest.approx(g["lambda_per_rev"].min(), rel=1e-12)
+        assert s["chaotic"] == (g["verdict"] == "chaotic").sum()
+        assert s["regular"] == (g["verdict"] == "regular").sum()
+        ch = g.loc[g["verdict"] == "chaotic", "value"]
+        if len(ch):
+            assert s["first_chaotic_value"] == pytest.approx(ch.min(), rel=1e-12)
+        else:
+            assert np.isnan(s["first_chaotic_value"])
+
+
+def test_showcase_states(quick_run):
+    study, out, _ = quick_run
+    pts, prov = load_table(out / "olyaei2012_points.csv")
+    states = prov["states"]
+    reg = pts[pts["verdict"] == "regular"]
+    cha = pts[pts["verdict"] == "chaotic"]
+    assert (states["regular"] is None) == (len(reg) == 0)
+    assert (states["chaotic"] is None) == (len(cha) == 0)
+    if not (len(reg) or len(cha)):
+        return
+    secs, _ = load_table(out / "olyaei2012_sections.parquet")
+    for k in ("regular", "chaotic"):
+        st = states[k]
+        if st is None:
+            continue
+        s = secs[secs["case"] == k]
+        assert len(s) == study.QUICK["case_revs"]
+        # the spread in the report is that of the stored section points
+        spread = max(np.ptp(s["B.ex"]), np.ptp(s["B.ey"]))
+        assert st["spread_m"] == pytest.approx(spread, rel=1e-12)
+        # the journal stays within its clearance plus the contact penetration
+        c = st["value"] if st["sweep"] == "clearance" else 0.5e-3
+        assert (np.hypot(s["B.ex"], s["B.ey"]) < 1.2 * c).all()
+    if states["chaotic"] is not None:
+        best = cha.loc[(cha["lambda_per_rev"] - cha["lambda_unc_per_rev"]).idxmax()]
+        assert states["chaotic"]["sweep"] == best["sweep"]
+        assert states["chaotic"]["value"] == pytest.approx(best["value"], rel=1e-12)
+
+
+def test_tolerance_check_covers_the_largest_exponents(quick_run):
+    study, out, _ = quick_run
+    pts, _ = load_table(out / "olyaei2012_points.csv")
+    tc, _ = load_table(out / "olyaei2012_tolcheck.csv")
+    assert set(tc["sweep"]) == set(study.SWEEPS)
+    for _, r in tc.iterrows():
+        g = pts[pts["sweep"] == r["sweep"]]
+        best = g.loc[g["lambda_per_rev"].idxmax()]
+        assert r["value"] == pytest.approx(best["value"], rel=1e-12)
+        assert r["sweep_lambda_per_rev"] == pytest.approx(best["lambda_per_rev"], rel=1e-12)
+        for rtol, d0 in study.TOL_CHECK:
+            key = f"rtol={rtol:g}" + (f",d0={d0:g}" if d0 else "")
+            assert np.isfinite(r[f"lambda {key}"]) and r[f"unc {key}"] >= 0
