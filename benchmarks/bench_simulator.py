@@ -59,6 +59,9 @@ import scipy  # noqa: E402
 from numba import njit  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
+from nld.kernel import drop_stale_numba_cache  # noqa: E402
+
+drop_stale_numba_cache(HERE / "handwritten_slider_crank.py")
 import handwritten_slider_crank as H  # noqa: E402
 from nld.kernel import compile_scene  # noqa: E402
 from nld.scene import load_scene  # noqa: E402

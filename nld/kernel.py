@@ -69,6 +69,22 @@ def kernel_dependencies() -> list[Path]:
     return files + sorted((here / "integrators").glob("*.py"))
 
 
+def drop_stale_numba_cache(source: Path) -> int:
+    """Delete numba's disk cache of ``source`` (a module with ``@njit(cache=True)`` functions that
+    call nld's integrators or laws) when a kernel dependency is newer than it; returns the count.
+
+    numba checks only the timestamp of ``source`` itself, so after an upgrade of an integrator a
+    hand-written module (benchmarks/handwritten_slider_crank.py) would run stale machine code."""
+    source = Path(source).resolve()
+    newest = max(f.stat().st_mtime for f in kernel_dependencies())
+    n = 0
+    for f in (source.parent / "__pycache__").glob(f"{source.stem}.*.nb[ic]"):
+        if f.stat().st_mtime < newest:
+            f.unlink(missing_ok=True)
+            n += 1
+    return n
+
+
 def _generator_digest() -> str:
     """Hash of the source of the code generator and of every module the generated kernel calls.
 

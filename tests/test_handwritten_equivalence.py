@@ -35,6 +35,8 @@ def _load_hand():
     name = "handwritten_slider_crank"
     if name in sys.modules:
         return sys.modules[name]
+    from nld.kernel import drop_stale_numba_cache
+    drop_stale_numba_cache(ROOT / "benchmarks" / f"{name}.py")
     spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod
