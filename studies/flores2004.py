@@ -307,7 +307,7 @@ def _fig_orbits(rep, tables):
             ax.set_xlabel("journal centre e_x [mm]")
             ax.set_ylabel("journal centre e_y [mm]")
             ax.set_title(f"clearance c = {c:g} mm")
-            ax.legend(loc="lower left", fontsize=7, markerscale=5)
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=7.5, markerscale=5)
     rep.figure(fig, caption="Plotted window (after the transient). Position of the journal (pin in the "
                             "slider) relative to the bearing centre (hole in the rod), in the ground "
                             "frame. Points outside the circle are penetrations (contact deformation, "

@@ -13,6 +13,7 @@ each section):
 * bifurcation diagram and exponent against the clearance (joints.B.clearance, 5000 rpm);
 * bifurcation diagram and exponent against the friction coefficient (joints.B.friction.mu, 0.5 mm,
   5000 rpm), the third parameter of the chaos literature (Farahanchi & Shaw: chaos at low friction);
+* the crank-speed sweep again at mu = 0.05 (the chaotic side of the friction sweep);
 * Poincare maps of a periodic (regular) and a chaotic state, picked from the sweeps (most negative and
   most positive exponent), over a longer section, with the exponent's convergence at a tighter
   tolerance;
@@ -23,7 +24,8 @@ sweep name first, the columns of :func:`nld.bifurcation.load_sweep`); ``olyaei20
 per sweep point: value, lambda per revolution +- uncertainty, verdict, detected period);
 ``olyaei2012_sections.parquet`` (the two showcase sections, ``case`` = regular / chaotic);
 ``olyaei2012_summary.csv`` (per sweep: counts, the largest and smallest exponent, onset; each number
-follows from the points file, which the test checks).
+follows from the points file, which the test checks); ``olyaei2012_tolcheck.csv`` (the largest exponent
+of each sweep recomputed at three tolerances).
 """
 from __future__ import annotations
 
@@ -48,13 +50,14 @@ FULL = dict(rtol=1e-8, transient_revs=100, revs=64, lyap_revs=64, lyap_rtol=1e-1
             speeds=list(np.arange(500.0, 6001.0, 125.0) / RPM),
             clearances=list(np.geomspace(0.02e-3, 0.5e-3, 29)),
             frictions=[0.0, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3],
+            speeds_low_mu=list(np.arange(500.0, 6001.0, 250.0) / RPM),
             case_transient=100, case_revs=300, case_lyap_revs=200, case_lyap_rtol=1e-10, workers=2)
 QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-10,
              speeds=[1500.0 / RPM, 3000.0 / RPM, SPEED0], clearances=[0.05e-3, 0.5e-3],
-             frictions=[0.0, 0.1],
-             case_transient=10, case_revs=30, case_lyap_revs=20, case_lyap_rtol=1e-10, workers=1)
+             frictions=[0.0, 0.1], speeds_low_mu=[1500.0 / RPM, SPEED0],
+             case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10, workers=1)
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
-             clearances=[0.05e-3], frictions=[0.0], case_transient=2, case_revs=6, case_lyap_revs=4)
+             clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
 
 OBS = ["B.ex", "B.ey"]
 # period of a section: successive points agree to PERIOD_TOL_C of the clearance (nld.poincare.period_of
@@ -67,7 +70,16 @@ SWEEPS = {
     "speed": ("driver.speed", "crank speed", RPM, "rpm", False),
     "clearance": ("joints.B.clearance", "radial clearance c", 1e3, "mm", True),
     "friction": ("joints.B.friction.mu", "friction coefficient μ", 1.0, "−", False),
+    "speed_mu0.05": ("driver.speed", "crank speed at μ = 0.05", RPM, "rpm", False),
 }
+# base overrides of a sweep (applied before the swept value), and its values in the settings
+BASE = {"speed_mu0.05": ["joints.B.friction.mu=0.05"]}
+SETTINGS_KEY = {"speed": "speeds", "clearance": "clearances", "friction": "frictions",
+                "speed_mu0.05": "speeds_low_mu"}
+FIXED = {"speed": "c = 0.5 mm, μ = 0.1", "clearance": "5000 rpm, μ = 0.1", "friction": "c = 0.5 mm, 5000 rpm",
+         "speed_mu0.05": "c = 0.5 mm, μ = 0.05"}
+# showcase of a chaotic state: candidates tried in order of lambda - uncertainty until one stays chaotic
+MAX_CHAOTIC_CANDIDATES = 3
 
 
 def _verdict(lam, unc):
@@ -82,11 +94,10 @@ def _verdict(lam, unc):
 def run_sweeps(st: dict):
     """The three sweeps; returns ({name: load_sweep table}, {name: wall s})."""
     from nld.bifurcation import sweep
-    values = {"speed": st["speeds"], "clearance": st["clearances"], "friction": st["frictions"]}
     out, walls = {}, {}
     for name, (param, *_rest) in SWEEPS.items():
         t0 = time.perf_counter()
-        out[name] = sweep(SCENE, param, [float(v) for v in values[name]],
+        out[name] = sweep(SCENE, param, [float(v) for v in st[SETTINGS_KEY[name]]], overrides=BASE.get(name),
                           transient_revs=st["transient_revs"], revs=st["revs"], observables=OBS,
                           rtol=st["rtol"], lyapunov=True, lyapunov_revs=st["lyap_revs"],
                           lyapunov_rtol=st["lyap_rtol"], workers=st["workers"])
@@ -98,7 +109,7 @@ def sweep_points(name: str, df: pd.DataFrame) -> pd.DataFrame:
     """One row per point: value, lambda (1/s and per revolution) +- uncertainty, verdict, period."""
     first = df.drop_duplicates(["direction", "index"]).sort_values("index")
     v = first["value"].to_numpy(float)
-    speed = v if name == "speed" else np.full(len(v), SPEED0)
+    speed = v if SWEEPS[name][0] == "driver.speed" else np.full(len(v), SPEED0)
     period = 2 * np.pi / speed
     lam = first["lyapunov"].to_numpy(float)
     unc = first["lyapunov_uncertainty"].to_numpy(float)
@@ -171,20 +182,21 @@ def summary_table(points: dict) -> pd.DataFrame:
 
 
 def _overrides(name: str, value: float):
-    return [f"{SWEEPS[name][0]}={value!r}"]
+    return list(BASE.get(name, [])) + [f"{SWEEPS[name][0]}={value!r}"]
 
 
 def pick_states(points: dict):
-    """(regular, chaotic) showcase points: {'sweep', 'value', ...} or None. Regular: the most negative
-    exponent among regular points, preferring a detected periodic section; chaotic: the largest
-    lambda - uncertainty among chaotic points."""
+    """(regular point, [chaotic candidates]): rows of the points table. Regular: the most negative
+    exponent among regular points, preferring a periodic section; chaotic candidates: the chaotic
+    points by decreasing lambda - uncertainty (at most MAX_CHAOTIC_CANDIDATES)."""
     allp = pd.concat(points.values(), ignore_index=True)
     reg = allp[allp["verdict"] == "regular"]
     per = reg[reg["period_c"] > 0]
     pool = per if len(per) else reg
     regular = pool.loc[pool["lambda_per_rev"].idxmin()].to_dict() if len(pool) else None
     ch = allp[allp["verdict"] == "chaotic"]
-    chaotic = ch.loc[(ch["lambda_per_rev"] - ch["lambda_unc_per_rev"]).idxmax()].to_dict() if len(ch) else None
+    ch = ch.assign(_key=ch["lambda_per_rev"] - ch["lambda_unc_per_rev"]).sort_values("_key", ascending=False)
+    chaotic = [r.drop(labels="_key").to_dict() for _, r in ch.head(MAX_CHAOTIC_CANDIDATES).iterrows()]
     return regular, chaotic
 
 
@@ -250,8 +262,7 @@ def _fmt_value(name, v):
 def _fig_sweep(rep, name, sw, pts, st):
     from nld.plots import bifurcation_diagram
     param, label, scale, unit, log = SWEEPS[name]
-    fixed = {"speed": "c = 0.5 mm, μ = 0.1", "clearance": "5000 rpm, μ = 0.1",
-             "friction": "c = 0.5 mm, 5000 rpm"}[name]
+    fixed = FIXED[name]
     with rep.style():
         fig, (a1, a2, a3) = rep.subplots(3, 1, sharex=True,
                                          title=f"Bifurcation diagram and largest Lyapunov exponent "
@@ -385,7 +396,7 @@ def _onset_lines(points):
 
 def _texts(points, summary, states, st, mode_label, tolcheck=None):
     s = summary.set_index("sweep")
-    sp, cl, fr = points["speed"], points["clearance"], points["friction"]
+    sp, cl, fr, sl = points["speed"], points["clearance"], points["friction"], points["speed_mu0.05"]
 
     def at(pts, v):
         i = int(np.argmin(np.abs(pts["value"].to_numpy(float) - v)))
@@ -408,11 +419,12 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         "control part of the paper is not repeated.",
         f"What is repeated ({mode_label}): scene 'slider_crank_olyaei' = the Flores benchmark (crank 0.05 m, "
         "rod 0.12 m, 0.5 mm radial clearance at B, journal 9.5 mm, restitution 0.9, 5000 rpm) with Ambrosio's "
-        "modified Coulomb friction μ = 0.1 (v0 = 1e-4, v1 = 1e-2 m/s). Three sweeps with nld.bifurcation.sweep: "
+        "modified Coulomb friction μ = 0.1 (v0 = 1e-4, v1 = 1e-2 m/s). Four sweeps with nld.bifurcation.sweep: "
         f"the crank speed ({len(sp)} values, {_fmt_value('speed', sp['value'].min())} to "
         f"{_fmt_value('speed', sp['value'].max())}), the clearance ({len(cl)} values, "
         f"{_fmt_value('clearance', cl['value'].min())} to {_fmt_value('clearance', cl['value'].max())}, "
-        f"log-spaced) and the friction coefficient ({len(fr)} values). Each point starts from the assembled "
+        f"log-spaced), the friction coefficient ({len(fr)} values), and the crank speed again at μ = 0.05 "
+        f"({len(sl)} values; the friction sweep puts this value on the chaotic side). Each point starts from the assembled "
         f"ideal state, runs {st['transient_revs']} transient revolutions and {st['revs']} section points at "
         f"rtol {st['rtol']:g} (error control scaled by the clearance), then λ1 by Benettin's method over "
         f"{st['lyap_revs']} revolutions at rtol {st['lyap_rtol']:g} (perturbation 1e-5 of the clearance "
@@ -441,6 +453,11 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         f"{_f(s.loc['friction', 'max_lambda_per_rev'])} (at μ = "
         f"{_fmt_value('friction', s.loc['friction', 'argmax_value'])}); at μ = 0 λ1 = "
         f"{_f(at(fr, 0.0)['lambda_per_rev'])} ({at(fr, 0.0)['verdict']}).",
+        f"- Crank speed at μ = 0.05: λ1 from {_f(s.loc['speed_mu0.05', 'min_lambda_per_rev'])} (at "
+        f"{_fmt_value('speed', s.loc['speed_mu0.05', 'argmin_value'])}) to "
+        f"{_f(s.loc['speed_mu0.05', 'max_lambda_per_rev'])} (at "
+        f"{_fmt_value('speed', s.loc['speed_mu0.05', 'argmax_value'])}); {int(s.loc['speed_mu0.05', 'chaotic'])} "
+        f"of {int(s.loc['speed_mu0.05', 'points'])} points chaotic.",
     ]
     if reg:
         found.append(f"- Regular showcase ({SWEEPS[reg['point']['sweep']][1]} = "
@@ -452,6 +469,12 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
                      f"{_f(reg['point']['lambda_per_rev'])} ± {_f(reg['point']['lambda_unc_per_rev'], digits=2)}).")
     else:
         found.append("- No regular point was found in the sweeps: no regular showcase.")
+    if cha and len(cha["tried"]) > 1:
+        found.append("- Chaotic candidates that did not stay chaotic over the longer run (transient chaos or an "
+                     "unconverged sweep exponent): " + "; ".join(
+                         f"{SWEEPS[t['sweep']][1]} = {_fmt_value(t['sweep'], t['value'])}: λ1 = "
+                         f"{_f(t['lambda_per_rev'])} ± {_f(t['lambda_unc_per_rev'], digits=2)}"
+                         for t in cha["tried"][:-1]) + ".")
     if cha:
         found.append(f"- Chaotic showcase ({SWEEPS[cha['point']['sweep']][1]} = "
                      f"{_fmt_value(cha['point']['sweep'], cha['point']['value'])}): {len(cha['section'].table)} "
@@ -469,13 +492,16 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
                              + (f", d0 {d0:g}" if d0 else "") + ")" for rt, d0 in TOL_CHECK)
             parts.append(f"{r['sweep']} sweep at {_fmt_value(r['sweep'], r['value'])}: {vals}")
         found.append("- Tolerance check of the largest exponent of each sweep: " + "; ".join(parts) + ".")
-    found += ["Where chaos sets in:", *_onset_lines(points)]
+    onset = ["Where chaos sets in (per sweep):", *_onset_lines(points)]
     # trends against the literature's statements, from the data
     def mean_lam(pts, sel):
         v = pts.loc[sel & (pts["status"] == "ok"), "lambda_per_rev"]
         return float(v.mean()) if len(v) else math.nan
-    spv = sp["value"].to_numpy(float)
-    hi_sp, lo_sp = mean_lam(sp, spv >= np.median(spv)), mean_lam(sp, spv < np.median(spv))
+    def halves(pts):
+        v = pts["value"].to_numpy(float)
+        return mean_lam(pts, v >= np.median(v)), mean_lam(pts, v < np.median(v))
+    hi_sp, lo_sp = halves(sp)
+    hi_sl, lo_sl = halves(sl)
     frv = fr["value"].to_numpy(float)
     lo_fr, hi_fr = mean_lam(fr, frv <= 0.02), mean_lam(fr, frv >= 0.1)
     clv = cl["value"].to_numpy(float)
@@ -485,7 +511,9 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         f"- 'Chaos at high crank speed': mean λ1 over the upper half of the speed range "
         f"{_f(hi_sp)}, over the lower half {_f(lo_sp)} per revolution: "
         + ("higher speeds are more chaotic here, as stated." if hi_sp > lo_sp else
-           "NOT reproduced: with μ = 0.1 the higher speeds are not more chaotic than the lower ones here."),
+           "NOT reproduced: with μ = 0.1 the higher speeds are not more chaotic than the lower ones here.")
+        + f" At μ = 0.05: upper half {_f(hi_sl)}, lower half {_f(lo_sl)} per revolution: "
+        + ("higher speeds are more chaotic." if hi_sl > lo_sl else "higher speeds are not more chaotic."),
         f"- 'Chaos at low friction': mean λ1 for μ ≤ 0.02 {_f(lo_fr)}, for μ ≥ 0.1 {_f(hi_fr)} per revolution: "
         + ("low friction is more chaotic, as stated." if lo_fr > hi_fr else
            "NOT reproduced: low friction is not more chaotic here."),
@@ -526,7 +554,7 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         f"sweeps therefore use rtol {st['lyap_rtol']:g} for the exponent, and the tolerance-check table "
         "recomputes the largest exponent of each sweep at three tolerances.",
     ]
-    return intro, found + trends, why
+    return intro, found, onset + trends, why
 
 
 def _run_table(walls, states, sweeps):
@@ -559,10 +587,10 @@ def _sde() -> bool:
 def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
     """Run the study; write the PDF and the data files; return the PDF's path.
 
-    Full: speed (45 values, 500-6000 rpm), clearance (29, 0.02-0.5 mm) and friction (10) sweeps, 100
-    transient + 64 section revolutions at rtol 1e-8, λ1 over 64 revolutions; showcase states 100 + 300
-    revolutions, λ1 over 200 at rtol 1e-10. quick: 3 + 2 + 2 points, 10 + 12 revolutions at rtol 1e-7.
-    smoke (tests): fewer points and revolutions still.
+    Full: speed (45 values, 500-6000 rpm), clearance (29, 0.02-0.5 mm), friction (10) and speed at
+    mu = 0.05 (23 values) sweeps, 100 transient + 64 section revolutions at rtol 1e-8, λ1 over 64
+    revolutions at rtol 1e-10; showcase states 100 + 300 revolutions, λ1 over 200 at rtol 1e-10.
+    quick: 3 + 2 + 2 + 2 points, 10 + 12 revolutions at rtol 1e-7 (λ1 at 1e-10). smoke: fewer still.
     """
     from nld import __version__
     from nld.io import save_table
@@ -585,15 +613,22 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     sweeps, walls = run_sweeps(st)
     points = {name: sweep_points(name, df) for name, df in sweeps.items()}
     summary = summary_table(points)
-    reg_pt, cha_pt = pick_states(points)
-    states = {}
-    for k, pt in (("regular", reg_pt), ("chaotic", cha_pt)):
-        if pt is None:
-            states[k] = None
-            continue
-        s = run_state(pt, st)
-        s["point"] = pt
-        states[k] = s
+    reg_pt, cha_cands = pick_states(points)
+    states = {"regular": None, "chaotic": None}
+    t_st = time.perf_counter()
+    if reg_pt is not None:
+        states["regular"] = dict(run_state(reg_pt, st), point=reg_pt, tried=[])
+    tried = []
+    for pt in cha_cands:
+        s = dict(run_state(pt, st), point=pt)
+        tried.append({"sweep": pt["sweep"], "value": float(pt["value"]),
+                      "lambda_per_rev": float(s["lyap"].per_revolution),
+                      "lambda_unc_per_rev": float(s["lyap"].uncertainty_per_revolution)})
+        s["tried"] = tried
+        states["chaotic"] = s
+        if s["lyap"].per_revolution - s["lyap"].uncertainty_per_revolution > 0:
+            break
+    walls["showcase states"] = time.perf_counter() - t_st
     t_tc = time.perf_counter()
     tolcheck = tolerance_check(points, st)
     walls["tolerance check"] = time.perf_counter() - t_tc
@@ -604,13 +639,15 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                       "lambda_per_rev": float(s["lyap"].per_revolution),
                       "lambda_unc_per_rev": float(s["lyap"].uncertainty_per_revolution),
                       "period": s["period"], "spread_m": s["spread_m"], "success": s["success"],
-                      "message": s["message"], **({} if _sde() else {"wall_s": s["wall_s"]})})
+                      "message": s["message"], "candidates_tried": s["tried"],
+                      **({} if _sde() else {"wall_s": s["wall_s"]})})
                  for k, s in states.items()}
     prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
             "scene": base.name, "scene_parameters": scene_to_dict(base),
             "integrator": "dopri5 (adaptive Dormand-Prince 5(4)), nld.bifurcation.sweep / nld.lyapunov",
-            "source": CITATION, **{k: v for k, v in st.items() if k not in ("speeds", "clearances", "frictions")},
+            "source": CITATION, **{k: v for k, v in st.items() if k not in SETTINGS_KEY.values()},
             "speeds_rad_s": [float(v) for v in st["speeds"]],
+            "speeds_low_mu_rad_s": [float(v) for v in st["speeds_low_mu"]],
             "clearances_m": [float(v) for v in st["clearances"]],
             "frictions": [float(v) for v in st["frictions"]],
             "observables": OBS, "states": state_rec, "summary": summary.to_dict(orient="records")}
@@ -633,7 +670,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     report_settings = {
         "Mode": mode_label,
         "Sweeps": (f"speed {len(st['speeds'])}, clearance {len(st['clearances'])}, friction "
-                   f"{len(st['frictions'])} values"),
+                   f"{len(st['frictions'])}, speed at μ = 0.05 {len(st['speeds_low_mu'])} values"),
         "Per point": f"{st['transient_revs']} transient + {st['revs']} section revolutions",
         "rtol": st["rtol"],
         "atol": "rtol x clearance scales",
@@ -647,10 +684,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                  subtitle=("full mode" if mode == "full" else mode_label), highlight_subtitle=mode != "full",
                  subject="Chaos in the clearance slider-crank (Olyaei & Ghazavi 2012 style) with nld",
                  keywords=["clearance joint", "slider-crank", "chaos", "Olyaei 2012", mode])
-    intro, found, why = _texts(points, summary, states, st, mode_label, tolcheck)
+    intro, found, onset, why = _texts(points, summary, states, st, mode_label, tolcheck)
     with rep:
         rep.text_page("What this report repeats", intro)
-        rep.text_page("What we find, and where chaos sets in", found)
+        rep.text_page("What we find", found)
+        rep.text_page("Where chaos sets in, and the literature's trends", onset)
         rep.text_page("Why the results may differ from the paper's", why)
         shown = summary.drop(columns=["param"]).copy()
         for c in ("argmax_value", "argmin_value", "first_chaotic_value", "last_chaotic_value"):

@@ -50,10 +50,10 @@ def test_quick_writes_pdf_and_data(quick_run):
     assert data.startswith(b"%PDF") and b"quick" in data
     _, prov = load_table(out / "olyaei2012.parquet")
     states = [k for k, v in prov["states"].items() if v]
-    # title page(s) + 3 text pages, summary table, 3 sweep figures, tolerance-check table, (the two
+    # title page(s) + 4 text pages, summary table, 4 sweep figures, tolerance-check table, (the two
     # state figures when a regular or a chaotic state was found), run statistics
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 9 + (2 if states else 0)
+    assert count_pages(pdf) == title_pages + 11 + (2 if states else 0)
     for f in ("olyaei2012.parquet", "olyaei2012_points.csv", "olyaei2012_summary.csv",
               "olyaei2012_tolcheck.csv"):
         assert (out / f).is_file(), f
@@ -66,7 +66,7 @@ def test_sweeps_stored_with_provenance(quick_run):
     assert prov["mode"] == "quick" and prov["scene"] == "slider_crank_olyaei"
     assert prov["rtol"] == study.QUICK["rtol"] and "git_hash" in prov
     assert set(df["case"]) == set(study.SWEEPS)
-    for name, key in (("speed", "speeds"), ("clearance", "clearances"), ("friction", "frictions")):
+    for name, key in study.SETTINGS_KEY.items():
         part = df[df["case"] == name]
         assert np.allclose(sorted(part["value"].astype(float).unique()), sorted(study.QUICK[key]))
         ok = part[part["status"] == "ok"]
@@ -83,7 +83,7 @@ def test_points_and_summary_follow_from_the_sweeps(quick_run):
     summ = summ.set_index("sweep")
     for name, g in pts.groupby("sweep"):
         part = df[df["case"] == name].drop_duplicates("index").set_index("index")
-        speed = g["value"].to_numpy() if name == "speed" else np.full(len(g), study.SPEED0)
+        speed = g["value"].to_numpy() if study.SWEEPS[name][0] == "driver.speed" else np.full(len(g), study.SPEED0)
         lam = part.loc[g["index"], "lyapunov"].to_numpy(float)
         assert np.allclose(g["lambda_per_rev"], lam * 2 * np.pi / speed, rtol=1e-12)
         for lam_r, unc, verdict in zip(g["lambda_per_rev"], g["lambda_unc_per_rev"], g["verdict"]):
@@ -125,9 +125,14 @@ def test_showcase_states(quick_run):
         c = st["value"] if st["sweep"] == "clearance" else 0.5e-3
         assert (np.hypot(s["B.ex"], s["B.ey"]) < 1.2 * c).all()
     if states["chaotic"] is not None:
+        # candidates in order of lambda - uncertainty; the shown state is the last one tried
         best = cha.loc[(cha["lambda_per_rev"] - cha["lambda_unc_per_rev"]).idxmax()]
-        assert states["chaotic"]["sweep"] == best["sweep"]
-        assert states["chaotic"]["value"] == pytest.approx(best["value"], rel=1e-12)
+        tried = states["chaotic"]["candidates_tried"]
+        assert 1 <= len(tried) <= study.MAX_CHAOTIC_CANDIDATES
+        assert tried[0]["sweep"] == best["sweep"]
+        assert tried[0]["value"] == pytest.approx(best["value"], rel=1e-12)
+        assert tried[-1]["value"] == pytest.approx(states["chaotic"]["value"], rel=1e-12)
+        assert states["chaotic"]["lambda_per_rev"] == tried[-1]["lambda_per_rev"]
 
 
 def test_tolerance_check_covers_the_largest_exponents(quick_run):
