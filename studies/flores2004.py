@@ -250,19 +250,19 @@ def display_summary(s: pd.DataFrame) -> pd.DataFrame:
         "case": s["case"],
         "c": s["clearance_m"] * 1e3,
         "peak Fn": s["peak_Fn_N"] * 1e-3,
-        "peak |a_slider|": s["peak_abs_slider_ax_m_s2"] * 1e-3,
-        "peak |M_crank|": s["peak_abs_torque_Nm"],
-        "Fn / ideal": s["Fn_over_ideal"], "a / ideal": s["ax_over_ideal"], "M / ideal": s["torque_over_ideal"],
-        "impacts per rev": s["impacts_per_rev"],
-        "free flight": s["free_flight_pct"], "impact": s["impact_pct"], "continuous": s["continuous_pct"],
+        "peak |a|": s["peak_abs_slider_ax_m_s2"] * 1e-3,
+        "peak |M|": s["peak_abs_torque_Nm"],
+        "Fn/ideal": s["Fn_over_ideal"], "a/ideal": s["ax_over_ideal"], "M/ideal": s["torque_over_ideal"],
+        "impacts/rev": s["impacts_per_rev"],
+        "free": s["free_flight_pct"], "impact": s["impact_pct"], "contact": s["continuous_pct"],
         "max pen.": s["max_penetration_m"] * 1e6,
-        "impact dur. (median)": s["impact_duration_median_s"] * 1e6,
+        "impact dur.": s["impact_duration_median_s"] * 1e6,
     })
 
 
-DISPLAY_UNITS = {"c": "mm", "peak Fn": "kN", "peak |a_slider|": "km/s²", "peak |M_crank|": "N m",
-                 "free flight": "% time", "impact": "% time", "continuous": "% time", "max pen.": "µm",
-                 "impact dur. (median)": "µs"}
+DISPLAY_UNITS = {"c": "mm", "peak Fn": "kN", "peak |a|": "km/s²", "peak |M|": "N m",
+                 "free": "%", "impact": "%", "contact": "%", "max pen.": "µm", "impact dur.": "µs"}
+DISPLAY_WIDTHS = [1.5, 0.8, 1.0, 1.1, 1.0, 1.0, 1.0, 1.0, 1.2, 0.9, 0.9, 0.9, 1.0, 1.1]
 
 
 # ------------------------------------------------------------------------------------ figures
@@ -597,9 +597,12 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     with rep:
         rep.text_page("What this report repeats", _text_intro(mode_label, settings, period, base))
         rep.table("Key numbers over the plotted window", display_summary(summary), col_units=DISPLAY_UNITS,
-                  notes=["Maxima over the output samples of the plotted window; 'ideal': the ideal-joint twin "
-                         "(for Fn: the magnitude of the joint-B reaction). Ratios are to the ideal values. "
-                         "Contact modes in % of the window's samples. The same numbers in SI units are in "
+                  col_widths=DISPLAY_WIDTHS,
+                  notes=["Maxima over the output samples of the plotted window: normal contact force Fn, slider "
+                         "acceleration a, crank moment M; 'ideal': the ideal-joint twin (for Fn: the magnitude of "
+                         "the joint-B reaction). Ratios are to the ideal values. Contact modes (free flight, "
+                         "impact, continuous contact) in % of the window's samples; max pen.: largest "
+                         "penetration; impact dur.: median duration of the impacts. The same numbers in SI units are in "
                          f"{STEM}_summary.csv; each peak is the maximum over that case's rows of {STEM}.parquet."],
                   float_format=lambda v: f"{v:.4g}")
         findings, why = _text_findings(summary, prs, tables)
