@@ -14,15 +14,16 @@ phi(j), j = 1 .. N, and a frequency c:
 * mean-square displacement  M_c(n) = mean_j [p_c(j+n) - p_c(j)]^2 + [q_c(j+n) - q_c(j)]^2,
   j = 1 .. N - n (all available pairs), for n = 1 .. n_cut (default n_cut = round(N/10));
 * the oscillating term is removed:  D_c(n) = M_c(n) - V_osc(c, n),
-  V_osc = (E phi)^2 (1 - cos n c) / (1 - cos c), E phi the mean of the series; this is done by
-  taking M_c of the mean-free series phi - E phi (equal to M_c - V_osc up to a cross term of
-  zero mean, and free of the cancellation of two large numbers when the mean dominates);
+  V_osc = (E phi)^2 (1 - cos n c) / (1 - cos c), E phi the mean of the series (``form="paper"``,
+  the default); ``form="mean_free"`` takes M_c of phi - E phi instead (the same up to a cross term
+  of zero mean, see :func:`zero_one_test`);
 * K_c = correlation coefficient of (n, D_c(n)), n = 1 .. n_cut (the "correlation method");
 * K = median of K_c over ``n_c`` (100) frequencies c drawn uniformly from (pi/5, 4 pi/5) with a
   fixed ``seed`` (the range avoids the resonances at c = 0 and pi; the median discards the few
   c that resonate with a frequency of a regular signal, whose K_c is near 1).
 
-K is invariant (exactly) to the scale and to the mean of the series. The sums over j
+K is invariant to the scale of the series; to its mean exactly with form="mean_free", in
+expectation with the paper's form. The sums over j
 are computed exactly with FFTs (autocorrelation of p_c + i q_c), O(n_c N log N).
 
 Input requirements (Gottwald & Melbourne 2009, sections 3 and 5):
@@ -118,7 +119,8 @@ def _msd(phi: np.ndarray, c: np.ndarray, n_cut: int) -> np.ndarray:
 
 
 def zero_one_test(series, *, n_c: int | None = None, c_range=None, seed: int | None = None,
-                  n_cut: int | None = None, c=None, atol: float = 0.0) -> ZeroOneResult:
+                  n_cut: int | None = None, c=None, atol: float = 0.0,
+                  form: str = "paper") -> ZeroOneResult:
     """0-1 test for chaos of an observable series (see the module docstring).
 
     series: 1-D samples phi(1..N) of one observable, evenly spaced in time or section count
@@ -131,11 +133,24 @@ def zero_one_test(series, *, n_c: int | None = None, c_range=None, seed: int | N
     atol: a series whose spread max - min is <= atol (unit of the series) is a fixed point:
       K = 0 with every K_c 0 (default 0: only an exactly constant series). Give it for data with
       noise, e.g. a period-1 stroboscopic series that repeats to the integration error: the test
-      cannot tell noise from chaos (noise alone gives K ~ 1), so the noise on a constant would
-      decide K.
+      cannot tell noise from chaos (zero-mean noise alone gives K ~ 1), so the noise on a constant
+      could decide K.
+    form: "paper" (default): D_c = M_c - V_osc of the series itself, as Gottwald & Melbourne
+      (2009); "mean_free": M_c of the series minus its mean (D_c without the zero-mean cross
+      term 2 E phi Re(...) of the paper's form). They agree for a series whose fluctuations are
+      not small against its mean (logistic map: K to 1e-3). They differ for a nearly constant
+      series with a large mean, such as a period-1 section that repeats to the integration noise
+      or has a decaying transient. There the paper's cross term dominates D_c, so K depends on
+      the mean. It gave K ~ 0 on the slider-crank's period-1 section, but 0.57 for white noise of
+      1e-12 on 0.25. The mean-free form sees the noise or transient alone and gives K up to ~1.
+      Neither form gives a reliable verdict there: declare such a series a fixed point with atol,
+      or with period_of as nld.chaos_map does. The paper form is not invariant to an offset of
+      the series; the mean-free form is, to round-off.
 
     Returns a :class:`ZeroOneResult` (K, Kc per c, c, ...).
     """
+    if form not in ("paper", "mean_free"):
+        raise InputError(f"form = {form!r}: 'paper' or 'mean_free'")
     x = _as_series(series)
     if not np.all(np.isfinite(x)):
         raise InputError("series: every sample must be finite (remove failed points first)")
@@ -172,13 +187,15 @@ def zero_one_test(series, *, n_c: int | None = None, c_range=None, seed: int | N
         return ZeroOneResult(0.0, np.zeros(cs.size), cs, n_cut, N, np.zeros((cs.size, n_cut)),
                              settings)
     # D_c(n) = M_c(n) - V_osc(c, n). With phi = E phi + psi, M_c of phi is exactly
-    # V_osc + M_c of psi + a cross term of zero mean (the oscillating part of p_c, q_c has the
-    # j-independent squared increment V_osc); the 2009 paper subtracts V_osc from M_c of phi.
-    # Here M_c is taken of the mean-free series psi: the same D_c up to that cross term, without
-    # the cancellation of two large numbers when the mean is much larger than the fluctuations
-    # (a journal eccentricity near the clearance that varies by 1e-9 of it), and K is then
-    # exactly invariant to the mean of the series.
-    D = _msd(x - float(np.mean(x)), cs, n_cut)
+    # V_osc + M_c of psi + a cross term 2 E phi Re(...) of zero mean (the oscillating part of p_c,
+    # q_c has the j-independent squared increment V_osc). form="paper" (default) keeps the cross
+    # term, as Gottwald & Melbourne (2009) do; form="mean_free" takes M_c of psi, which drops it.
+    settings["form"] = form
+    if form == "paper":
+        mean = float(np.mean(x))
+        D = _msd(x, cs, n_cut) - mean ** 2 * (1.0 - np.cos(np.outer(cs, xi))) / (1.0 - np.cos(cs))[:, None]
+    else:
+        D = _msd(x - float(np.mean(x)), cs, n_cut)
     xc = xi - xi.mean()
     Dc = D - D.mean(axis=1, keepdims=True)
     den = np.sqrt(np.sum(Dc ** 2, axis=1) * np.sum(xc ** 2))
