@@ -8,6 +8,7 @@
     nld bifurcation SCENE --param KEY --values START:STOP:COUNT [...] --out DIR [--resume] [--dask ADDR]
     nld spectrum SCENE [--set ...] [--observable NAME] [--out FILE]
     nld lyapunov SCENE [--set ...] [--transient N] [--revs M] [--json]
+    nld chaos-map SCENE --x KEY --x-values A:B:N --y KEY --y-values A:B:N --out DIR [--resume]
     nld study NAME [--quick] [--out-dir DIR]     run studies/NAME.py, print the PDF path
     nld --version
 
@@ -135,10 +136,11 @@ def build_parser() -> argparse.ArgumentParser:
                                                  "(provenance in FILE.json / parquet metadata)")
     sp.set_defaults(func=cmd_simulate)
 
-    from . import bifurcation, poincare, spectrum
+    from . import bifurcation, chaos_map, poincare, spectrum
     poincare.add_arguments(sub)
     bifurcation.add_arguments(sub)
     spectrum.add_arguments(sub)
+    chaos_map.add_arguments(sub)
 
     sp = sub.add_parser("lyapunov", help="largest Lyapunov exponent of a scene (Benettin)",
                         description="Largest Lyapunov exponent by Benettin's two-trajectory method "
