@@ -9,6 +9,7 @@
     nld spectrum SCENE [--set ...] [--observable NAME] [--out FILE]
     nld lyapunov SCENE [--set ...] [--transient N] [--revs M] [--json]
     nld chaos-map SCENE --x KEY --x-values A:B:N --y KEY --y-values A:B:N --out DIR [--resume]
+    nld hard-cases [--quick] [--list] [NAME ...]  the integrators' hard regression cases
     nld study NAME [--quick] [--out-dir DIR]     run studies/NAME.py, print the PDF path
     nld --version
 
@@ -162,6 +163,16 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--json", action="store_true", help="print the result as JSON")
     sp.set_defaults(func=cmd_lyapunov)
 
+    sp = sub.add_parser("hard-cases", help="run the named hard regression cases of the integrators",
+                        description="Run the hard cases (nld.hard_cases: very stiff contact, tiny and "
+                                    "large clearances, friction reversal, grazing contact, 10^4 "
+                                    "revolutions, 10 000 rpm) and print a report per case; exit "
+                                    "status 1 when a case fails its check.")
+    sp.add_argument("names", nargs="*", metavar="NAME", help="cases to run (default: all)")
+    sp.add_argument("--quick", action="store_true", help="the short variant of the long cases")
+    sp.add_argument("--list", action="store_true", help="list the cases and exit")
+    sp.set_defaults(func=cmd_hard_cases)
+
     sp = sub.add_parser("study", help="run a study (studies/NAME.py) and print its PDF path",
                         description="Run studies/NAME.py (or the unique studies/NAME*.py) by calling its "
                                     f"main(quick, out_dir); the studies directory is ${STUDIES_ENV} "
@@ -297,6 +308,15 @@ def available_studies(d: Path | None = None) -> list[str]:
     if not d.is_dir():
         return []
     return sorted(p.stem for p in d.glob("*.py") if not p.name.startswith(("_", ".")) and p.is_file())
+
+
+def cmd_hard_cases(args) -> int:
+    from .hard_cases import CASES, main as hard_main
+    unknown = [n for n in args.names if n not in CASES]
+    if unknown:
+        raise InputError(f"hard case {unknown[0]!r}: choose from {', '.join(CASES)}")
+    return hard_main((["--quick"] if args.quick else []) + (["--list"] if args.list else [])
+                     + list(args.names))
 
 
 def cmd_lyapunov(args) -> int:
