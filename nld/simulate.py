@@ -97,6 +97,12 @@ def initial_state(kernel: Kernel):
     return y0, z0, q
 
 
+def event_log_size(n_revs: float) -> int:
+    """Length of the event log simulate allocates for a run of n_revs crank revolutions (contacts
+    per revolution are tens; a needlessly long log costs page faults on short runs)."""
+    return int(min(1_000_000, 1000 + 400 * n_revs))
+
+
 def tolerances(kernel: Kernel, q0: np.ndarray, rtol: float) -> np.ndarray:
     """The integrators' 2n tolerance vector: absolute tolerances, then per-state rtol weights.
 
@@ -199,7 +205,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
             n_revs = (t_end - t0) / crank_period(scene)
         except InputError:
             n_revs = 100.0
-        max_log = int(min(1_000_000, 1000 + 400 * n_revs))
+        max_log = event_log_size(n_revs)
         if method == "dopri5":
             out = kern.module.solve(float(t0), np.ascontiguousarray(y0, dtype=float), t_eval, bool(land), p, z,
                                     float(rtol), atol, 0.0, float(hmax), int(max_steps), int(n_ev), max_log)

@@ -301,9 +301,9 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     Y = np.full((n_eval, n), np.nan)
     Zo = np.zeros((n_eval, z.shape[0]))     # discrete state in force at each output row
     stats = np.zeros(5, dtype=np.int64)
-    ev_t = np.zeros(max_log, dtype=np.float64)
-    ev_k = np.zeros(max_log, dtype=np.int64)
-    ev_dir = np.zeros(max_log, dtype=np.int64)
+    ev_t = np.empty(max_log, dtype=np.float64)      # only the first n_ev entries are written
+    ev_k = np.empty(max_log, dtype=np.int64)
+    ev_dir = np.empty(max_log, dtype=np.int64)
     n_ev = 0
 
     # work arrays, allocated once
