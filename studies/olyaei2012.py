@@ -538,19 +538,31 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
     lo_cl, hi_cl = mean_lam(cl, clv < np.median(clv)), mean_lam(cl, clv >= np.median(clv))
     trends = [
         "Against the literature's statements:",
-        f"- 'Chaos at high crank speed': median λ1 over the upper half of the speed range "
-        f"{_f(hi_sp)}, over the lower half {_f(lo_sp)} per revolution: "
-        + ("higher speeds are more chaotic here, as stated." if hi_sp > lo_sp else
-           "NOT reproduced: with μ = 0.1 the higher speeds are not more chaotic than the lower ones here.")
-        + f" At μ = 0.05: upper half {_f(hi_sl)}, lower half {_f(lo_sl)} per revolution: "
-        + ("higher speeds are more chaotic." if hi_sl > lo_sl else "higher speeds are not more chaotic."),
+        f"- 'Chaos at high crank speed': at μ = 0.1, {int(s.loc['speed', 'chaotic'])} of "
+        f"{int(s.loc['speed', 'points'])} speeds are chaotic (median λ1 {_f(hi_sp)} over the upper half of the "
+        f"range, {_f(lo_sp)} over the lower half): "
+        + ("NOT reproduced at μ = 0.1: no speed in the range is chaotic. " if int(s.loc['speed', 'chaotic']) == 0 else
+           ("higher speeds are more chaotic, as stated. " if hi_sp > lo_sp else
+            "higher speeds are not more chaotic. "))
+        + f"At μ = 0.05, {int(s.loc['speed_mu0.05', 'chaotic'])} of {int(s.loc['speed_mu0.05', 'points'])} speeds "
+        f"are chaotic" + (f", from {_fmt_value('speed', s.loc['speed_mu0.05', 'first_chaotic_value'])} to "
+                          f"{_fmt_value('speed', s.loc['speed_mu0.05', 'last_chaotic_value'])}"
+                          if int(s.loc['speed_mu0.05', 'chaotic']) else "")
+        + f" (median λ1 {_f(hi_sl)} over the upper half, {_f(lo_sl)} over the lower half): "
+        + ("chaos appears only at high speed, as stated, when the friction is low enough."
+           if int(s.loc['speed_mu0.05', 'chaotic']) and hi_sl > lo_sl and
+           s.loc['speed_mu0.05', 'first_chaotic_value'] >= np.median(sl['value']) else
+           "the statement is not reproduced in this form."),
         f"- 'Chaos at low friction': median λ1 for μ ≤ 0.02 {_f(lo_fr)}, for μ ≥ 0.1 {_f(hi_fr)} per revolution: "
         + ("low friction is more chaotic, as stated." if lo_fr > hi_fr else
            "NOT reproduced: low friction is not more chaotic here."),
-        f"- Clearance size: median λ1 over the smaller half of the clearances {_f(lo_cl)}, over the larger half "
-        f"{_f(hi_cl)} per revolution: "
-        + ("the smaller clearances are the more chaotic ones at 5000 rpm with μ = 0.1." if lo_cl > hi_cl else
-           "the larger clearances are the more chaotic ones at 5000 rpm with μ = 0.1."),
+        f"- Clearance size (5000 rpm, μ = 0.1): median λ1 over the smaller half of the clearances {_f(lo_cl)}, "
+        f"over the larger half {_f(hi_cl)} per revolution; {int(s.loc['clearance', 'chaotic'])} of "
+        f"{int(s.loc['clearance', 'points'])} clearances chaotic"
+        + (f", all between {_fmt_value('clearance', s.loc['clearance', 'first_chaotic_value'])} and "
+           f"{_fmt_value('clearance', s.loc['clearance', 'last_chaotic_value'])}: the regularity depends on the "
+           "clearance, but not monotonically (chaotic windows between regular clearances)."
+           if int(s.loc['clearance', 'chaotic']) else ": no clearance is chaotic here."),
     ]
     why = [
         "Why our results may differ from the paper's:",
