@@ -102,7 +102,7 @@ def _failed_table(spec: _Spec, observables) -> pd.DataFrame:
 def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None) -> dict:
     """Run one point; never raises for a bad value or a failed integration (status 'failed')."""
     from .kernel import compile_scene
-    from .poincare import default_observables, period_of, stroboscopic
+    from .poincare import default_observables, period_of, section_scales, stroboscopic
     start = time.perf_counter()
     notes = []
     obs = spec.observables
@@ -127,7 +127,8 @@ def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None)
             table = _failed_table(spec, obs)
         else:
             table = sec.table.drop(columns=["t"]).reset_index(drop=True)
-            period = period_of(sec.points, tol=spec.period_tol, n_max=spec.n_max)
+            period = period_of(sec.points, tol=spec.period_tol, n_max=spec.n_max,
+                               scale=section_scales(scene, sec.observables))
             y_final, z_final = sec.y_final.tolist(), sec.z_final.tolist()
             if spec.lyapunov:
                 lyap, lyap_unc, note = _lyapunov(spec, scene, kern, sec)

@@ -134,7 +134,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     """Run one cell; never raises for a bad value or a failed run (status 'failed')."""
     from .kernel import compile_scene
     from .lyapunov import lyapunov_benettin
-    from .poincare import default_observables, period_of, stroboscopic
+    from .poincare import default_observables, period_of, section_scales, stroboscopic
     from .systems import SceneSystem
     from .zero_one import zero_one_test
     spec = job.spec
@@ -160,7 +160,8 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
         table = sec.table.drop(columns=["t"]).rename(columns={obs: "value"})
         table.insert(1, "observable", [obs] * len(table))
         series = sec.table[obs].to_numpy(dtype=float)
-        period = period_of(series, tol=spec.period_tol, n_max=spec.n_max)
+        period = period_of(series, tol=spec.period_tol, n_max=spec.n_max,
+                           scale=section_scales(scene, [obs]))
         y_final, z_final = sec.y_final.tolist(), sec.z_final.tolist()
         # the 0-1 test of the section series (no extra integration)
         if spec.revs < MIN_ZERO_ONE:

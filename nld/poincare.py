@@ -27,6 +27,7 @@ import pandas as pd
 from .errors import InputError
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
+           "section_scales",
            "default_observables", "add_arguments", "cli_poincare"]
 
 TWO_PI = 2.0 * math.pi
@@ -502,6 +503,25 @@ def _land(system, y, z, t0, t1, rtol, atol, hmax, max_steps):
 # period detection
 
 
+def section_scales(scene, columns) -> np.ndarray:
+    """Physical scale of each section column for :func:`period_of`: the joint's radial clearance (m)
+    for an eccentricity component of a clearance joint (``J.ex``, ``J.ey``, ``J.e``), NaN (the
+    points' own range) for any other column. A DataFrame gives its columns as period_of selects
+    them."""
+    if isinstance(columns, pd.DataFrame):
+        columns = [c for c in columns.columns if c not in ("rev", "crossing", "t")
+                   and pd.api.types.is_numeric_dtype(columns[c])]
+    elif isinstance(columns, str):
+        columns = [columns]
+    out = np.full(len(columns), np.nan)
+    for i, col in enumerate(columns):
+        joint, _, comp = str(col).rpartition(".")
+        j = scene.joints.get(joint) if joint else None
+        if j is not None and comp in ("ex", "ey", "e") and getattr(j, "clearance", 0.0) > 0.0:
+            out[i] = j.clearance
+    return out
+
+
 def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MAX, *,
               scale=None, window: int | None = None) -> int:
     """Smallest period n <= n_max of a sequence of section points, 0 for none (aperiodic).
@@ -509,7 +529,9 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
     points: (N, d) array or a DataFrame (its numeric columns other than rev/crossing/t), oldest
     first, transient already dropped. Each coordinate is divided by its scale (default
     max(range, rms) of that coordinate over the points; a coordinate whose scale is 0 is
-    constant and ignored; or give ``scale``, one value per coordinate). Period n holds when
+    constant and ignored; or give ``scale``, one value per coordinate, NaN for the default:
+    :func:`section_scales` gives the clearance for eccentricity components, so a fixed point
+    whose eccentricity is near 0 is not judged on its own tiny range). Period n holds when
     max |p[i+n] - p[i]| / scale <= tol for every i in the last ``window`` points (default all)
     and at least n such pairs exist (every phase repeats at least once), so N >= 2n is needed.
     """
@@ -525,10 +547,10 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
         P = P[-int(window):]
     if len(P) < 2 or not np.all(np.isfinite(P)):
         return 0
-    if scale is None:
-        s = np.maximum(np.ptp(P, axis=0), np.sqrt(np.mean(P * P, axis=0)))
-    else:
-        s = np.broadcast_to(np.asarray(scale, dtype=float), (P.shape[1],)).copy()
+    s = np.maximum(np.ptp(P, axis=0), np.sqrt(np.mean(P * P, axis=0)))
+    if scale is not None:
+        given = np.broadcast_to(np.asarray(scale, dtype=float), (P.shape[1],))
+        s = np.where(np.isnan(given), s, given)
     keep = s > 0
     if not np.any(keep):
         return 1
@@ -603,7 +625,9 @@ def cli_poincare(args) -> int:
                                  transient_revs=args.transient_revs, revs=args.revs,
                                  observables=args.observables, overrides=args.overrides,
                                  rtol=args.rtol)
-    n = period_of(sec.points, tol=args.period_tol)
+    from .scene import load_scene
+    n = period_of(sec.points, tol=args.period_tol,
+                  scale=section_scales(load_scene(args.scene, args.overrides), sec.observables))
     prov = dict(sec.provenance)
     prov.update(period_detected=n, period_tol=args.period_tol,
                 command=getattr(args, "command_line", None))

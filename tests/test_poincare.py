@@ -247,3 +247,24 @@ def test_cli_poincare(monkeypatch, capsys, tmp_path):
     assert "driver.speed" in capsys.readouterr().out
     assert cli.main(["poincare", "slider_crank", "--observables", "B.zz"]) == 2
     assert "no such column" in capsys.readouterr().err
+
+
+def test_period_of_uses_the_clearance_for_eccentricity_near_zero():
+    """A fixed point whose ex is ~0 repeats to 1e-9 of the clearance: judged on its own tiny range
+    it looks aperiodic; with section_scales (clearance for J.ex/J.ey) it is period 1."""
+    import pandas as pd
+    from nld.poincare import period_of, section_scales
+    from nld.scene import load_scene
+    scene = load_scene("slider_crank")
+    c = scene.joints["B"].clearance
+    rng = np.random.default_rng(0)
+    pts = pd.DataFrame({"rev": np.arange(20), "B.ex": 1e-9 * c * rng.standard_normal(20),
+                        "B.ey": -0.9 * c + 1e-9 * c * rng.standard_normal(20)})
+    assert period_of(pts) == 0
+    sc = section_scales(scene, pts)
+    assert sc.tolist() == [c, c]
+    assert period_of(pts, scale=sc) == 1
+    # other columns keep the default (NaN), and a real period-2 orbit is still period 2
+    pts2 = pts.assign(**{"rod.omega": np.tile([1.0, 3.0], 10)})
+    sc2 = section_scales(scene, pts2)
+    assert np.isnan(sc2[2]) and period_of(pts2, scale=sc2) == 2
