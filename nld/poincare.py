@@ -427,7 +427,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
             continue
         off = sub_level(i)
         t0, t1 = grid[i], grid[i + 1]
-        g0, g1 = g[i] - off, g[i + 1] - off
+        g0 = g[i] - off
         if g0 == 0.0:
             tc, yc, zc = t0, Y[i].copy(), Z[i].copy()
         elif refine:

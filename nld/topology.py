@@ -118,7 +118,6 @@ def build_topology(scene: Scene) -> Topology:
     coords: list[Coord] = []
     crank_body = crank_coord = None
     seen = {0}
-    queue = [0]
     pending_roots = list(range(1, len(names) + 1))
 
     def visit(start):

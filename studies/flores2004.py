@@ -199,7 +199,6 @@ def summary_table(tables: dict, ideal: pd.DataFrame, period: float, plotted_revs
     i_tq = float(ideal["driver.torque"].abs().max())
     rows = []
     for name, d in tables.items():
-        t = d["t"].to_numpy()
         mode = d["mode"].to_numpy()
         iv = d.attrs.get("intervals", [])
         impacts = sum(1 for a, b in iv if (b - a) < IMPACT_MAX_DURATION)

@@ -20,7 +20,6 @@ Outputs in ``out_dir``: ``rhee1996.pdf``; ``rhee1996.parquet`` (the sampled runs
 """
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 

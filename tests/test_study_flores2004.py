@@ -5,41 +5,17 @@ and the ideal twin; about 15-20 s on two cores with a warm kernel cache (one com
 """
 from __future__ import annotations
 
-import importlib.util
-import re
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from nld.io import load_table
 from nld.report import Report
-
-ROOT = Path(__file__).resolve().parent.parent
-STUDY = ROOT / "studies" / "flores2004.py"
-
-
-def load_study():
-    spec = importlib.util.spec_from_file_location("flores2004_study_under_test", STUDY)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def count_pages(path) -> int:
-    try:
-        from pypdf import PdfReader
-    except ImportError:
-        return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", path.read_bytes()))
-    return len(PdfReader(str(path)).pages)
+from study_harness import count_pages, run_quick
 
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
-    study = load_study()
-    out = tmp_path_factory.mktemp("flores2004")
-    pdf = study.main(quick=True, out_dir=out)
-    return study, out, pdf
+    return run_quick("flores2004.py", tmp_path_factory)
 
 
 def test_quick_writes_pdf_and_data(quick_run):

@@ -5,42 +5,17 @@ analysis: 4 sweep points x (1 + 2 + 2 x 2) revolutions at rtol 1e-5).
 """
 from __future__ import annotations
 
-import importlib.util
-import re
-from pathlib import Path
-
 import numpy as np
-import pandas as pd
 import pytest
 
 from nld.io import load_table
 from nld.report import Report
-
-ROOT = Path(__file__).resolve().parent.parent
-STUDY = ROOT / "studies" / "zhang2013_excavator.py"
-
-
-def load_study():
-    spec = importlib.util.spec_from_file_location("zhang2013_study_under_test", STUDY)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def count_pages(path) -> int:
-    try:
-        from pypdf import PdfReader
-    except ImportError:
-        return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", path.read_bytes()))
-    return len(PdfReader(str(path)).pages)
+from study_harness import count_pages, run_quick
 
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
-    study = load_study()
-    out = tmp_path_factory.mktemp("zhang2013")
-    pdf = study.main(quick=True, out_dir=out)
-    return study, out, pdf
+    return run_quick("zhang2013_excavator.py", tmp_path_factory)
 
 
 def test_quick_writes_pdf_parquet_and_summary(quick_run):
