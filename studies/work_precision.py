@@ -475,7 +475,9 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
             df, info = pickle.loads(cached.read_bytes())
             log(f"case {name}: runs from {cached}")
         else:
+            t_case = time.perf_counter()
             df, info = run_case(name, settings, log)
+            info["wall_s"] = time.perf_counter() - t_case
             if cached is not None:
                 import pickle
                 cached.parent.mkdir(parents=True, exist_ok=True)
@@ -507,6 +509,10 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
     pdf = out_dir / f"{STEM}.pdf"
     ladder = ", ".join(f"{r:.0e}" for r in settings["ladder"])
     pages = {}
+    # wall time on the title page: the runs (as computed, also when resumed from cache_dir) + the report
+    runs_wall = sum(float(i.get("wall_s", 0.0)) for i in infos.values())
+    prov["runs_wall_s"] = runs_wall
+    t_report = time.perf_counter()
     with Report(pdf, TITLE, provenance=prov,
                 settings={"mode": mode, "cases": ", ".join(settings["cases"]),
                           "methods": ", ".join(settings["methods"]), "rtol ladder": ladder,
@@ -569,6 +575,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
                   notes=["status < 0: failed (no window errors). n_onsets: contact onsets on the window (run / "
                          "reference). ecc_se: standard error of the reference's mean eccentricity."])
         pages["runs_table"] = rep.page_count - n0
+        rep.wall_time = runs_wall + (time.perf_counter() - t_report)
     prov["pages"] = pages
     save_study_data(frames, out_dir / f"{STEM}.parquet", prov)
     save_study_data(rec_df, out_dir / f"{STEM}_recommended.parquet", prov)
