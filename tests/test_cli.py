@@ -130,7 +130,8 @@ def test_simulate_ideal_matches_closed_form(tmp_path, capsys):
 
 
 def test_simulate_failed_integration_exits_1_and_writes(tmp_path, capsys, monkeypatch):
-    import nld.simulate as sim_mod
+    import importlib
+    sim_mod = importlib.import_module("nld.simulate")   # the module (nld.simulate is the function)
     real = sim_mod.simulate
 
     def failing(*a, **k):
@@ -279,3 +280,13 @@ def test_lyapunov_command_bad_input(capsys):
     assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--rtol" in err[0]
+
+
+def test_package_level_simulate_is_the_function():
+    """``nld.simulate(...)`` as in the README, also after ``import nld.simulate``."""
+    import importlib
+    import nld.simulate  # noqa: F401
+    assert callable(nld.simulate) and nld.simulate is importlib.import_module("nld.simulate").simulate
+    res = nld.simulate("slider_crank", revs=0.05)
+    assert res.success and len(res.table) > 10
+    assert nld.load_scene("four_bar").name == "four_bar"
