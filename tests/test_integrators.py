@@ -420,3 +420,14 @@ def test_zero_rtol_weight_makes_the_control_absolute(which):
     assert err_rel > 10.0 * err_abs, (err_rel, err_abs)
     with pytest.raises(ValueError):
         offset_solve(which, te, np.array([a, a, 0.0]))
+
+
+def test_dop853_rejects_a_step_whose_dense_output_is_not_finite():
+    """slider_crank at rtol 1e-4: a long free-flight step whose three extra dense-output stages
+    met the contact gave NaN outputs and then a non-finite stop at t = 4.41 ms (before the fix);
+    the step is now rejected and the run goes on, with every output finite."""
+    r = simulate("slider_crank", t_end=0.0045, rtol=1e-4, method="dop853", samples_per_rev=20000)
+    assert r.status == SUCCESS, r.message
+    assert np.isfinite(r.table[["B.ex", "B.ey", "B.Fn"]].to_numpy()).all()
+    ref = simulate("slider_crank", t_end=0.0045, rtol=1e-10, samples_per_rev=20000)
+    assert len(r.events) == len(ref.events)

@@ -482,6 +482,14 @@ def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
 
 
 @njit(cache=True)
+def _all_finite(a):
+    for v in a.ravel():
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@njit(cache=True)
 def interp(theta, cont, out):
     """Dense output y(t + theta h) from cont = [y, F0..F6] (Hairer's CONTD8)."""
     th1 = 1.0 - theta
@@ -656,6 +664,14 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                 if t_eval[i_out] < t_new:
                     _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
                     nfev += 3
+                    if not _all_finite(cont):
+                        # the extra stages of the dense output met a force the 12 stages of the
+                        # step did not see (a contact inside the step): the step is not trusted
+                        n_acc -= 1
+                        n_rej += 1
+                        reject = True
+                        h = 0.5 * h
+                        continue
                 i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_new
             y, ynew = ynew, y
@@ -675,6 +691,12 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         # Iterate on the retaken step until the root is at its end (at most MAX_RELOCATE).
         _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
         nfev += 3
+        if not _all_finite(cont):
+            n_acc -= 1
+            n_rej += 1
+            reject = True
+            h = 0.5 * h
+            continue
         tol = ROOT_RTOL * max(1.0, abs(t_new))
         t_c = t_new             # end of the current step, state ynew
         h_c = h
