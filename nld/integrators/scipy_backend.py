@@ -133,6 +133,11 @@ def solve_scipy(kernel, y0, z0, t_eval, p, method, rtol, atol, *, t0=None, hmax=
         except _Budget:
             status = MAX_STEPS
             break
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            # e.g. Radau's LU of a Jacobian with inf/NaN entries: solve_ivp raises instead of
+            # returning a failure; report it as the non-finite status at the segment start
+            status = NON_FINITE
+            break
         stats[0] += len(sol.t) - 1
         stats[1] += len(sol.t) - 1
         stats[3] += int(sol.nfev)
