@@ -127,8 +127,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--revs", type=_number_arg("--revs"), metavar="N",
                    help="crank revolutions to simulate (default 1)")
     g.add_argument("--t-end", type=_number_arg("--t-end"), metavar="T", help="end time (s)")
-    sp.add_argument("--rtol", type=_rtol_arg, default=DEFAULT_RTOL, metavar="R",
-                    help=f"relative tolerance (default {DEFAULT_RTOL:g})")
+    sp.add_argument("--rtol", type=_rtol_arg, default=None, metavar="R",
+                    help=f"relative tolerance (default: the scene's recommended rtol, else {DEFAULT_RTOL:g})")
     sp.add_argument("--samples-per-rev", type=_samples_arg, default=DEFAULT_SAMPLES_PER_REV, metavar="N",
                     help=f"output samples per crank revolution (default {DEFAULT_SAMPLES_PER_REV})")
     sp.add_argument("--ideal", action="store_true",
@@ -246,7 +246,7 @@ def cmd_simulate(args) -> int:
         wall = time.perf_counter() - start
         table, status, message, stats, events = res.table, res.status, res.message, res.stats, res.events
         prov = dict(res.provenance)
-        prov.update(rtol=args.rtol, status=int(status), message=message, t_reached=float(res.t_reached),
+        prov.update(status=int(status), message=message, t_reached=float(res.t_reached),
                     stats=dict(stats))
     prov.update(kind="ideal" if args.ideal else "simulate", samples_per_rev=args.samples_per_rev,
                 revs=args.revs if args.t_end is None else None, command=args.command_line)

@@ -36,7 +36,7 @@ TWO_PI = 2.0 * math.pi
 # allowed keys of every table (the schema), in the order scene_to_dict writes them
 
 TOP_KEYS = ("scene", "ground", "bodies", "joints", "driver", "loads")
-SCENE_KEYS = ("name", "description", "gravity", "source")
+SCENE_KEYS = ("name", "description", "gravity", "source", "method", "rtol")
 GROUND_KEYS = ("points",)
 BODY_KEYS = ("mass", "inertia", "points", "angle0")
 JOINT_KEYS = ("type", "bodies", "points", "clearance", "journal_radius", "axis", "contact", "friction")
@@ -472,6 +472,9 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
     src = _string(st.get("source", ""), "scene.source")
     if source:
         src = str(source)
+    from .integrators import METHODS
+    method = _choice(st, "method", "scene", METHODS, "dopri5") if "method" in st else ""
+    rtol = _num(st, "rtol", "scene", None, ge=1e-14, lt=1.0) if "rtol" in st else None
 
     # [ground]
     gt = _table_of(raw, "ground", "ground")
@@ -578,7 +581,8 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
     _check_connected(bodies, joints)
 
     return Scene(name=name, description=description, gravity=gravity, ground_points=ground_points,
-                 bodies=bodies, joints=joints, driver=driver, loads=loads, source=src)
+                 bodies=bodies, joints=joints, driver=driver, loads=loads, source=src,
+                 method=method, rtol=rtol)
 
 
 def _contact(c: dict, path: str) -> Contact:
@@ -761,6 +765,10 @@ def scene_to_dict(scene: Scene) -> dict:
     st = {"name": scene.name, "description": scene.description, "gravity": _plain(scene.gravity)}
     if scene.source:
         st["source"] = scene.source
+    if scene.method:
+        st["method"] = scene.method
+    if scene.rtol is not None:
+        st["rtol"] = scene.rtol
     out: dict = {"scene": st, "ground": {"points": _plain(dict(scene.ground_points))}}
     out["bodies"] = {name: {"mass": b.mass, "inertia": b.inertia, "points": _plain(dict(b.points)),
                             "angle0": b.angle0} for name, b in scene.bodies.items()}

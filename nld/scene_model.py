@@ -101,6 +101,8 @@ class Scene:
     driver: Driver | None = None
     loads: list[Load] = field(default_factory=list)
     source: str = ""                 # file the scene came from, if any
+    method: str = ""                 # recommended integrator (docs/performance.md); "" = dopri5
+    rtol: float | None = None        # recommended relative tolerance; None = simulate's default
 
     @property
     def clearance_joints(self) -> list[Joint]:

@@ -122,18 +122,20 @@ def tolerances(kernel: Kernel, q0: np.ndarray, rtol: float) -> np.ndarray:
 
 
 def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | None = None,
-             rtol: float = DEFAULT_RTOL, t_eval=None, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
+             rtol: float | None = None, t_eval=None, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
              overrides=None, y0=None, z0=None, t0: float = 0.0, land: bool = False,
              max_steps: int = 50_000_000, hmax: float | None = None, kernel: Kernel | None = None,
-             raise_on_failure: bool = False, method: str = "dopri5") -> SimulationResult:
+             raise_on_failure: bool = False, method: str | None = None) -> SimulationResult:
     """Simulate a scene with the adaptive Dormand-Prince 5(4) integrator (or ``method``).
 
     scene: a Scene, a built-in name or a TOML path (``overrides`` as for ``nld --set``).
-    t_end (s) or revs (crank revolutions): the end of the run. rtol: relative tolerance; absolute
-    tolerances as ``tolerances`` (positions absolute, clearance-scaled). t_eval: output times (s); default
-    ``samples_per_rev`` per crank revolution. land: land exactly on the output times (stroboscopic
-    sampling). hmax (s): step cap, default a twentieth of a crank period. method: "dopri5" (default),
-    "dop853", "rodas" (stiff) or "scipy:RK45|DOP853|Radau|LSODA" (docs/integrators.md).
+    t_end (s) or revs (crank revolutions): the end of the run. rtol: relative tolerance (default:
+    the scene's ``[scene] rtol``, the work-precision recommendation of docs/performance.md, else
+    1e-8); absolute tolerances as ``tolerances`` (positions absolute, clearance-scaled). t_eval:
+    output times (s); default ``samples_per_rev`` per crank revolution. land: land exactly on the
+    output times (stroboscopic sampling). hmax (s): step cap, default a twentieth of a crank
+    period. method: the scene's ``[scene] method``, else "dopri5"; or "dop853", "rodas" (stiff),
+    "scipy:RK45|DOP853|Radau|LSODA" (docs/integrator.md).
     """
     from .integrators.dopri5 import status_message
     from .scene import load_scene
@@ -144,6 +146,10 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         raw = scene_to_dict(scene)
         apply_overrides(raw, overrides)
         scene = scene_from_dict(raw, scene.source)
+    if rtol is None:        # the scene's recommended tolerance (docs/performance.md), else 1e-8
+        rtol = scene.rtol if scene.rtol is not None else DEFAULT_RTOL
+    if method is None:
+        method = scene.method or "dopri5"
     if not (isinstance(rtol, float | int) and 1e-14 <= rtol < 1):
         raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
     if method != "dopri5":
