@@ -6,7 +6,7 @@
 Measured, side by side with their targets (ratios only, nothing asserted):
 
 1. time per sweep point: a bifurcation sweep (nld.bifurcation.sweep) of the Flores slider-crank over
-   ``driver.speed`` (24 values, 300..600 rad/s; 20 transient + 80 section revolutions per point, rtol
+   ``driver.speed`` (96 values, 300..600 rad/s, about 20 s on one core: 20 transient + 80 section revolutions per point, rtol
    1e-8), run in this process (workers=1): wall time / points, and the median of the per-point wall
    times stored in the point files;
 2. parallel efficiency, 2 workers vs 1: E = T1 / (2 T2), T2 the same sweep on the local spawned
@@ -293,7 +293,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     res = dict(load_start=_load())
     with tempfile.TemporaryDirectory() as d:
-        res["sweep"] = bench_sweeps(8 if args.quick else 24, Path(d))
+        res["sweep"] = bench_sweeps(8 if args.quick else 96, Path(d))
     print("sweep:", {k: v for k, v in res["sweep"].items()}, flush=True)
     res["exponent"] = []
     for rtol in ([1e-9] if args.quick else [1e-10, 1e-9]):
