@@ -21,7 +21,12 @@ keys set together, e.g. the clearances of joints A and B) and runs:
 3. the 0-1 test for chaos (:func:`nld.zero_one.zero_one_test`) of the section series: a cheap
    second opinion from the points already computed (no extra integration). It needs ``revs`` >=
    30 (else K is NaN with a note) and is rough below a few hundred points. A section that repeats
-   to ``period_tol`` (period 1 by :func:`nld.poincare.period_of`) is a fixed point: K = 0.
+   to ``period_tol`` (period 1 by :func:`nld.poincare.period_of`) is a fixed point: K = 0;
+4. optionally (``rtol_check``) the exponent again from the same state at a second tolerance. A
+   cell whose two exponents differ by more than ``CHECK_FACTOR`` x (the sum of their
+   uncertainties) is "uncertain" whatever their signs: the value belongs to the integrator, not
+   to the mechanism (seen with the stiff Lankarani-Nikravesh contact in permanent contact:
+   docs/lyapunov.md, "Tolerance-dependent exponents").
 
 Parallel runs, files and resume reuse :mod:`nld.bifurcation`'s machinery (its point files,
 provenance checks, worker warm-up, batching and Dask client): the cells are independent points of
@@ -37,8 +42,10 @@ Result (one row per cell, y outer, x inner): ``x, y, ix, iy, exponent`` (1/s), `
 (1/s, block standard error + history spread, docs/lyapunov.md), ``per_revolution`` and
 ``uncertainty_per_revolution`` (natural log per crank revolution), ``verdict`` ("chaotic":
 exponent - uncertainty > 0, "regular": exponent + uncertainty < 0, "uncertain" otherwise,
-"failed"), ``K``, ``K_spread`` (half the inter-quartile range of K_c), ``period`` (of the section,
-0 none), ``status``, ``message``. ``attrs``: ``provenance``, ``param_x``, ``param_y`` (lists of
+"failed"; with ``rtol_check`` both exponents must pass and agree), ``K``, ``K_spread`` (half the
+inter-quartile range of K_c), ``period`` (of the section, 0 none), ``status``, ``message``,
+``per_revolution_check``, ``uncertainty_per_revolution_check`` (the exponent at ``rtol_check``
+per revolution; NaN without it). ``attrs``: ``provenance``, ``param_x``, ``param_y`` (lists of
 keys), ``wall_s`` ({index: seconds}).
 """
 from __future__ import annotations
@@ -63,10 +70,12 @@ __all__ = ["chaos_map", "load_chaos_map", "chaos_map_plot", "param_label", "SUMM
 DIRECTION = "grid"
 SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolution",
                    "uncertainty_per_revolution", "verdict", "K", "K_spread", "period", "status",
-                   "message"]
+                   "message", "per_revolution_check", "uncertainty_per_revolution_check"]
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
 # settings checked on resume besides bifurcation's (nld.bifurcation._SETTINGS)
-_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one")
+_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check")
+# exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
+CHECK_FACTOR = 3.0
 
 
 @dataclass
@@ -79,6 +88,7 @@ class _Job:
     d0: float | None
     seed: int
     zero_one: dict
+    rtol_check: float | None = None
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -119,15 +129,22 @@ def _cell_scene(job: _Job, x, y):
     return scene_from_dict(raw, job.spec.source)
 
 
-def _verdict(lam, unc, status) -> str:
+def _verdict(lam, unc, status, lam_check=math.nan, unc_check=math.nan) -> str:
+    """chaotic: lam - unc > 0; regular: lam + unc < 0; else uncertain. With a check exponent
+    (finite lam_check) both must give the same verdict and agree to CHECK_FACTOR x (unc +
+    unc_check), else the cell is uncertain."""
     if status != "ok" or not math.isfinite(lam):
         return "failed"
-    u = unc if math.isfinite(unc) else 0.0
-    if lam - u > 0:
-        return "chaotic"
-    if lam + u < 0:
-        return "regular"
-    return "uncertain"
+
+    def one(la, un):
+        u = un if math.isfinite(un) else 0.0
+        return "chaotic" if la - u > 0 else "regular" if la + u < 0 else "uncertain"
+    v = one(lam, unc)
+    if math.isfinite(lam_check):
+        u = (unc if math.isfinite(unc) else 0.0) + (unc_check if math.isfinite(unc_check) else 0.0)
+        if one(lam_check, unc_check) != v or abs(lam - lam_check) > CHECK_FACTOR * u:
+            return "uncertain"
+    return v
 
 
 def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
@@ -142,6 +159,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     notes = []
     status, message = "ok", ""
     lam = unc = per_rev = unc_rev = K = K_spread = math.nan
+    lam_c = unc_c = per_rev_c = unc_rev_c = math.nan
     period = 0
     obs = job.observable
     y_final = z_final = None
@@ -181,6 +199,16 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
                                 rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
         lam, unc = float(res.exponent), float(res.uncertainty)
         per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
+        if job.rtol_check is not None:      # the same exponent at a second tolerance
+            chk = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
+                                    rtol=job.rtol_check, d0=job.d0, seed=job.seed)
+            lam_c, unc_c = float(chk.exponent), float(chk.uncertainty)
+            per_rev_c = float(chk.per_revolution)
+            unc_rev_c = float(chk.uncertainty_per_revolution)
+            if _verdict(lam, unc, "ok", lam_c, unc_c) == "uncertain" != _verdict(lam, unc, "ok"):
+                notes.append(f"lambda depends on the tolerance: {per_rev:.3g} +- {unc_rev:.2g} per "
+                             f"revolution at rtol {spec.lyapunov_rtol:g}, {per_rev_c:.3g} +- "
+                             f"{unc_rev_c:.2g} at rtol {job.rtol_check:g}")
     except Exception as e:        # noqa: BLE001 - a cell's failure is data, the map goes on
         status = "failed"
         message = (str(e) if isinstance(e, _CellFailed)
@@ -195,9 +223,11 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     head = {"x": [x] * n, "y": [y] * n, "ix": np.full(n, ix, dtype=np.int64),
             "iy": np.full(n, iy, dtype=np.int64)}
     summary = {"exponent": lam, "uncertainty": unc, "per_revolution": per_rev,
-               "uncertainty_per_revolution": unc_rev, "verdict": _verdict(lam, unc, status),
+               "uncertainty_per_revolution": unc_rev,
+               "verdict": _verdict(lam, unc, status, lam_c, unc_c),
                "K": K, "K_spread": K_spread, "period": int(period), "status": status,
-               "message": message}
+               "message": message, "per_revolution_check": per_rev_c,
+               "uncertainty_per_revolution_check": unc_rev_c}
     table = pd.concat([pd.DataFrame(head), table.reset_index(drop=True)], axis=1)
     for k, v in summary.items():
         table[k] = [v] * n if isinstance(v, str) else np.full(n, v)
@@ -248,7 +278,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
               d0: float | None = None, seed: int = 0, observable: str | None = None,
               zero_one: dict | None = None, period_tol: float = 1e-6,
               max_steps: int = 50_000_000, batch_size: int | None = None,
-              progress=None) -> pd.DataFrame:
+              progress=None, rtol_check: float | None = None) -> pd.DataFrame:
     """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
 
     scene: Scene, built-in name or TOML path; base_overrides: ``--set`` values applied first.
@@ -261,6 +291,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     +3.9 +- 1.5 at 1e-8, K ~ 1: the integration error decides the attractor there).
     lyapunov_revs (default revs), lyapunov_rtol (default rtol), d0 (default 1e-5, scaled norm),
     seed: the exponent (:func:`nld.lyapunov.lyapunov_benettin`), from the end of the section.
+    rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
+    from the same state; the cell is "uncertain" unless both agree (module docstring, step 4).
+    It doubles the exponent's cost.
     observable: the section observable of the 0-1 test (default ``<J>.ex`` of the first clearance
     joint); zero_one: keyword arguments of :func:`nld.zero_one.zero_one_test` (default none:
     100 frequencies, seed 0). period_tol: a section repeating to this relative tolerance is a fixed
@@ -292,6 +325,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     if d0 is not None and not (isinstance(d0, (int, float)) and math.isfinite(d0) and d0 > 0):
         raise InputError(f"d0 = {d0!r}: must be a positive number")
     zero_one = dict(zero_one or {})
+    if rtol_check is not None and not (isinstance(rtol_check, (int, float))
+                                       and 1e-14 <= rtol_check < 1):
+        raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
     spec = _bif._Spec(raw=raw, source=sc.source, param=keys_x[0], transient_revs=transient_revs,
                       revs=revs, observables=[observable] if observable else None,
                       rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
@@ -300,13 +336,15 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
                       lyapunov_rtol=float(rtol if lyapunov_rtol is None else lyapunov_rtol),
                       out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"))
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
-               d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one)
+               d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
+               rtol_check=None if rtol_check is None else float(rtol_check))
     settings = dict(scene=sc.name, scene_parameters=raw, param=[keys_x, keys_y], values=[vx, vy],
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
                     rtol=spec.rtol, continuation=False, up_down=False, max_steps=spec.max_steps,
                     period_tol=spec.period_tol, n_max=spec.n_max, lyapunov=True,
                     lyapunov_revs=spec.lyapunov_revs, lyapunov_rtol=spec.lyapunov_rtol,
-                    d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one)
+                    d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one,
+                    rtol_check=job.rtol_check)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
                 integrator="dopri5", base_overrides=_plain_overrides(base_overrides),
                 lyapunov_method="benettin (nld.lyapunov.lyapunov_benettin)",
@@ -610,6 +648,9 @@ def add_arguments(subparsers):
                     help="relative tolerance (default 1e-10; see docs/analysis.md before raising it)")
     sp.add_argument("--lyapunov-rtol", type=_rtol_arg, default=None, metavar="R",
                     help="relative tolerance of the exponent (default --rtol)")
+    sp.add_argument("--rtol-check", type=_rtol_arg, default=None, metavar="R",
+                    help="recompute each exponent at this second tolerance; cells where the two "
+                         "disagree are 'uncertain' (default: no check)")
     sp.add_argument("--d0", type=_number_arg("--d0"), default=None, metavar="D0",
                     help="initial separation, scaled norm (default 1e-5)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
@@ -657,7 +698,8 @@ def cli_chaos_map(args) -> int:
                    ky if len(ky) > 1 else ky[0], args.y_values,
                    transient_revs=args.transient_revs, revs=args.revs,
                    lyapunov_revs=args.lyapunov_revs, rtol=args.rtol,
-                   lyapunov_rtol=args.lyapunov_rtol, d0=args.d0, seed=args.seed,
+                   lyapunov_rtol=args.lyapunov_rtol, rtol_check=args.rtol_check, d0=args.d0,
+                   seed=args.seed,
                    observable=args.observable, workers=args.workers, dask=args.dask,
                    out=args.out, resume=args.resume, base_overrides=args.overrides,
                    progress=progress)

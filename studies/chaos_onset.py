@@ -43,17 +43,22 @@ FULL = {
                          values_y=[0.0, 0.02, 0.05, 0.08, 0.1, 0.15, 0.2],
                          # rtol 1e-10: at 1e-8 and 1e-9 a periodic state in continuous contact comes out
                          # chaotic (lambda1 +3.1 and +3.9 per rev against -0.35 at 1e-10; docs/analysis.md)
-                         transient_revs=50, revs=100, lyapunov_revs=100, rtol=1e-10, d0=None),
+                         # rtol_check 1e-11: each exponent again from the same state; a cell
+                         # whose two values disagree is 'uncertain' (docs/lyapunov.md: c = 0.1 mm,
+                         # mu = 0.1 gave 82 per rev at 1e-10, 44 at 1e-11, an exponent of the integrator)
+                         transient_revs=50, revs=100, lyapunov_revs=100, rtol=1e-10, d0=None,
+                         rtol_check=1e-11),
     # mu = 0.1 is left out: with the paper's Coulomb law the cell c = 0.1 mm exceeded 5e7 steps within
     # 0.13 s in a trial run (docs/studies.md), the friction sign chattering while a journal sticks
     "excavator": dict(values_x=[1e-5, 3e-5, 1e-4, 5e-4], values_y=[0.0, 0.01, 0.02, 0.05],
-                      transient_revs=2, revs=2, lyapunov_revs=4, rtol=1e-6, d0=1e-4),
+                      transient_revs=2, revs=2, lyapunov_revs=4, rtol=1e-6, d0=1e-4, rtol_check=1e-7),
 }
 QUICK = {
     "slider_crank": dict(values_x=[0.1e-3, 0.25e-3, 0.5e-3], values_y=[0.0, 0.1, 0.2],
-                         transient_revs=5, revs=30, lyapunov_revs=10, rtol=1e-7, d0=None),
+                         transient_revs=5, revs=30, lyapunov_revs=10, rtol=1e-7, d0=None,
+                         rtol_check=1e-8),
     "excavator": dict(values_x=[3e-5, 3e-4], values_y=[0.0, 0.01],
-                      transient_revs=0, revs=1, lyapunov_revs=2, rtol=1e-5, d0=1e-4),
+                      transient_revs=0, revs=1, lyapunov_revs=2, rtol=1e-5, d0=1e-4, rtol_check=None),
 }
 MAPS = {"slider_crank": SC, "excavator": EX}
 
@@ -64,7 +69,8 @@ def run_map(name: str, st: dict, workers: int):
     t0 = time.perf_counter()
     df = chaos_map(m["scene"], m["param_x"], st["values_x"], m["param_y"], st["values_y"],
                    transient_revs=st["transient_revs"], revs=st["revs"],
-                   lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"], workers=workers)
+                   lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"], workers=workers,
+                   rtol_check=st.get("rtol_check"))
     walls = df.attrs.get("wall_s", {})
     df["wall_s"] = [float(walls.get(int(iy) * len(st["values_x"]) + int(ix), math.nan))
                     for ix, iy in zip(df["ix"], df["iy"])]
@@ -78,6 +84,7 @@ def summarise(name: str, df: pd.DataFrame) -> dict:
     return {"map": name, "cells": len(df), "chaotic": int((v == "chaotic").sum()),
             "regular": int((v == "regular").sum()), "uncertain": int((v == "uncertain").sum()),
             "failed": int((v == "failed").sum()),
+            "tolerance_dependent": int(df["message"].str.contains("depends on the tolerance").sum()),
             "max_lambda_per_rev": float(lam.max()) if len(lam) else math.nan,
             "min_lambda_per_rev": float(lam.min()) if len(lam) else math.nan,
             "median_uncertainty_per_rev": float(ok["uncertainty_per_revolution"].median()) if len(ok) else math.nan}
@@ -122,7 +129,9 @@ def _fig_map(rep, name, df, st, value="lambda"):
                        y_label="friction coefficient μ [−]" + (" (A and B)" if name == "excavator" else ""))
     cap = (f"{m['label']}. Each cell: {st['transient_revs']} transient revolutions, a {st['revs']}-point "
            f"stroboscopic section, then λ1 (Benettin) over {st['lyapunov_revs']} revolutions at rtol "
-           f"{st['rtol']:g}" + (f", d0 = {st['d0']:g}" if st["d0"] else ", d0 = 1e-5") + " (scaled norm). "
+           f"{st['rtol']:g}" + (f", d0 = {st['d0']:g}" if st["d0"] else ", d0 = 1e-5") + " (scaled norm)" +
+           (f", checked at rtol {st['rtol_check']:g} (a cell whose two exponents disagree is hatched as "
+            "uncertain)" if st.get("rtol_check") else "") + ". "
            "Colour and number: λ1 per crank revolution (± its uncertainty); black line: λ1 = 0, the onset "
            "boundary, interpolated between cell centres; hatched: |λ1| <= uncertainty.")
     if value == "K":
@@ -132,13 +141,24 @@ def _fig_map(rep, name, df, st, value="lambda"):
     rep.figure(fig, caption=cap)
 
 
+def _check_text(st) -> str:
+    if not st.get("rtol_check"):
+        return ", no tolerance check"
+    return (f"; every exponent is computed again from the same state at rtol {st['rtol_check']:g} and the "
+            "cell is 'uncertain' unless both agree in verdict and to 3 x their combined uncertainty "
+            "(an explicit integrator on a stiff contact state can return a steady, large, "
+            "tolerance-dependent exponent of its own: docs/lyapunov.md)")
+
+
 def _texts(summ, bnd, maps, st_all, mode_label, walls):
     s = summ.set_index("map")
 
     def line(name):
         r = s.loc[name]
         return (f"{name}: {int(r['cells'])} cells, {int(r['chaotic'])} chaotic, {int(r['regular'])} regular, "
-                f"{int(r['uncertain'])} uncertain, {int(r['failed'])} failed; λ1 from {r['min_lambda_per_rev']:.3g} to "
+                f"{int(r['uncertain'])} uncertain (of which {int(r['tolerance_dependent'])} because λ1 "
+                "changed with the tolerance), "
+                f"{int(r['failed'])} failed; λ1 from {r['min_lambda_per_rev']:.3g} to "
                 f"{r['max_lambda_per_rev']:.3g} per revolution (median uncertainty "
                 f"{r['median_uncertainty_per_rev']:.2g}); wall time {walls[name]:.0f} s.")
 
@@ -177,10 +197,11 @@ def _texts(summ, bnd, maps, st_all, mode_label, walls):
         "chaotic motion.",
         f"- slider-crank: {len(sc['values_x'])} x {len(sc['values_y'])} cells; per cell "
         f"{sc['transient_revs']} transient revolutions, {sc['revs']} section points, λ1 over "
-        f"{sc['lyapunov_revs']} revolutions, rtol {sc['rtol']:g}.",
+        f"{sc['lyapunov_revs']} revolutions, rtol {sc['rtol']:g}" + _check_text(sc) + ".",
         f"- excavator: {len(ex['values_x'])} x {len(ex['values_y'])} cells, COARSE: per cell "
         f"{ex['transient_revs']} transient revolutions, {ex['revs']} section point(s), λ1 over only "
-        f"{ex['lyapunov_revs']} revolutions, rtol {ex['rtol']:g}, d0 = {ex['d0']:g}. The excavator is slow: "
+        f"{ex['lyapunov_revs']} revolutions, rtol {ex['rtol']:g}, d0 = {ex['d0']:g}" + _check_text(ex) +
+        ". The excavator is slow: "
         "with the paper's Coulomb friction a revolution takes several seconds (the friction sign chatters "
         "while a journal sticks and the error control follows it). Its exponents are short finite-time "
         "estimates; a check at c = 0.03 mm, μ = 0 (1 + 1 + 4 revolutions) gave λ1 = 23.5, 18.4, 15.4 per "

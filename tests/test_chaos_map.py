@@ -64,6 +64,33 @@ def test_table_files_provenance_and_verdicts(reference):
     assert (sec.observable == "B.ex").all() and sec.value.abs().max() <= 5e-4 * 1.05
 
 
+def test_verdict_with_a_tolerance_check():
+    from nld.chaos_map import _verdict
+    assert _verdict(2.0, 0.5, "ok") == "chaotic" and _verdict(-2.0, 0.5, "ok") == "regular"
+    assert _verdict(0.2, 0.5, "ok") == "uncertain" and _verdict(2.0, 0.5, "failed") == "failed"
+    assert _verdict(2.0, 0.5, "ok", 2.5, 0.5) == "chaotic"          # agree: |2 - 2.5| <= 3 x 1
+    assert _verdict(2.0, 0.5, "ok", 6.0, 0.5) == "uncertain"        # same sign, values disagree
+    assert _verdict(2.0, 0.5, "ok", -1.0, 0.1) == "uncertain"       # the sign flips
+    assert _verdict(-2.0, 0.5, "ok", -2.2, 0.3) == "regular"
+
+
+def test_tolerance_check_flags_an_exponent_of_the_integrator():
+    """Slider-crank at 5000 rpm, c = 0.1 mm, mu = 0.1: after 50 revolutions at rtol 1e-10 the
+    journal is in permanent Lankarani-Nikravesh contact at the end of the 100-point section, and Benettin's lambda settles near 86 per
+    revolution at rtol 1e-10 but near 10 at 1e-9 from the same state (measured; both positive, far
+    apart): the stiff damped contact, not the mechanism, sets the value (docs/lyapunov.md). Without
+    the check the cell reads 'chaotic'; with it 'uncertain', with a message naming both values."""
+    kw = dict(transient_revs=50, revs=100, lyapunov_revs=20, rtol=1e-10, workers=1)
+    plain = chaos_map(SCENE, PX, [1e-4], PY, [0.1], **kw)
+    checked = chaos_map(SCENE, PX, [1e-4], PY, [0.1], rtol_check=1e-9, **kw)
+    a, b = plain.iloc[0], checked.iloc[0]
+    assert a.verdict == "chaotic" and math.isnan(a.per_revolution_check)
+    assert b.per_revolution == a.per_revolution                   # the same first exponent
+    assert b.per_revolution > 3 * b.per_revolution_check > 0
+    assert b.verdict == "uncertain" and "depends on the tolerance" in b.message
+    assert checked.attrs["provenance"]["rtol_check"] == 1e-9
+
+
 def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
     """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + Benettin from its end."""
     from nld.lyapunov import lyapunov_benettin

@@ -49,6 +49,12 @@ def test_summary_matches_stored_map(quick_run):
         # verdicts follow the exponent and its uncertainty
         ch = ok[ok["verdict"] == "chaotic"]
         assert (ch["per_revolution"] - ch["uncertainty_per_revolution"] > 0).all()
+        assert row["tolerance_dependent"] == m["message"].str.contains("depends on the tolerance").sum()
+        if st.get("rtol_check"):        # a chaotic cell passed the check at the second tolerance too
+            assert ch["per_revolution_check"].notna().all()
+            assert (ch["per_revolution_check"] - ch["uncertainty_per_revolution_check"] > 0).all()
+        else:
+            assert m["per_revolution_check"].isna().all()
         assert np.allclose(ok["per_revolution"], ok["exponent"] * 2 * np.pi /
                            prov["maps"][row["map"]]["chaos_map_provenance"]["scene_parameters"]["driver"]["speed"])
 
