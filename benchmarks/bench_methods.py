@@ -224,7 +224,6 @@ def main(argv=None):
     log = print
     load0 = os.getloadavg()
     t_start = time.perf_counter()
-    lines = []
     summary = []
     all_rows = {}
     for scene in args.scenes.split(","):

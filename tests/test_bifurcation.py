@@ -1,10 +1,6 @@
 """Bifurcation sweeps (nld.bifurcation): local pool vs Dask, resume after an interruption, failed
 points, continuation up and down, provenance; the bifurcation diagram of nld.plots."""
 import json
-import os
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +10,7 @@ import pytest
 from nld.bifurcation import load_sweep, parse_values, sweep
 from nld.errors import InputError
 from nld.poincare import stroboscopic
+from interrupt import run_and_kill
 
 ROOT = Path(__file__).resolve().parent.parent
 VALUES = [300.0, 350.0, 400.0, 450.0, 500.0, 550.0]       # driver.speed, rad/s
@@ -72,17 +69,7 @@ def test_killed_sweep_resumed_equals_uninterrupted(reference, tmp_path):
     code = ("from nld.bifurcation import sweep\n"
             f"sweep('slider_crank', 'driver.speed', {VALUES!r}, workers=1, out={str(out)!r}, "
             f"**{KW!r})\n")
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.Popen([sys.executable, "-c", code], env=env, cwd=ROOT)
-    deadline = time.monotonic() + 120
-    try:
-        while len(list(out.glob("point-*.parquet"))) < 2 and proc.poll() is None \
-                and time.monotonic() < deadline:
-            time.sleep(0.02)
-    finally:
-        proc.kill()
-        proc.wait()
-    done = sorted(out.glob("point-*.parquet"))
+    done = run_and_kill(code, out)
     assert 2 <= len(done) < len(VALUES), "the sweep was not interrupted"
     assert not list(out.glob(".*.tmp"))           # nothing half-written left behind
     stamps = {p.name: p.stat().st_mtime_ns for p in done}

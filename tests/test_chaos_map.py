@@ -4,10 +4,6 @@ the uninterrupted table; the same map on Dask; failing cells; verdicts against t
 the heat map with its onset contour; the command line."""
 import json
 import math
-import os
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +12,7 @@ import pytest
 
 from nld.chaos_map import SUMMARY_COLUMNS, chaos_map, chaos_map_plot, load_chaos_map
 from nld.errors import InputError
+from interrupt import run_and_kill
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = "slider_crank_olyaei"              # Flores slider-crank with Ambrosio friction at B, 5000 rpm
@@ -117,17 +114,7 @@ def test_killed_map_resumed_equals_uninterrupted(reference, tmp_path):
     code = ("from nld.chaos_map import chaos_map\n"
             f"chaos_map({SCENE!r}, {PX!r}, {VX!r}, {PY!r}, {VY!r}, workers=1, out={str(out)!r}, "
             f"**{KW!r})\n")
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.Popen([sys.executable, "-c", code], env=env, cwd=ROOT)
-    deadline = time.monotonic() + 120
-    try:
-        while len(list(out.glob("point-*.parquet"))) < 2 and proc.poll() is None \
-                and time.monotonic() < deadline:
-            time.sleep(0.01)
-    finally:
-        proc.kill()
-        proc.wait()
-    done = sorted(out.glob("point-*.parquet"))
+    done = run_and_kill(code, out)
     assert 2 <= len(done) < 4, "the map was not interrupted"
     assert not list(out.glob(".*.tmp"))
     stamps = {p.name: p.stat().st_mtime_ns for p in done}

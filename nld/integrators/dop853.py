@@ -311,6 +311,22 @@ def locate_event(events, interp, k, s, t, h, t_new, gl, gr, cont, yint, gtmp, p,
 
 
 @njit(cache=True, inline='always')
+def earliest_root(events, interp, crossed, sgn, t, h, t_c, gcur, gnew, cont, yint, gtmp, p, z,
+                  tol, troot):
+    """The earliest root in (t, t_c] of the event functions flagged in ``crossed``, each located
+    by ``locate_event`` on the dense output of [t, t + h] (roots stored in ``troot``); t_c when
+    none is earlier."""
+    t_star = t_c
+    for k in range(crossed.shape[0]):
+        if crossed[k]:
+            troot[k] = locate_event(events, interp, k, sgn[k], t, h, t_c, gcur[k], gnew[k], cont,
+                                    yint, gtmp, p, z, tol)
+            if troot[k] < t_star:
+                t_star = troot[k]
+    return t_star
+
+
+@njit(cache=True, inline='always')
 def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
     """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output (step length h).
     Returns the next output index."""
@@ -705,13 +721,8 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         fire = True
         t_star = t_c
         for _ in range(MAX_RELOCATE):
-            t_star = t_c
-            for k in range(ne):
-                if crossed[k]:
-                    troot[k] = locate_event(events, interp, k, sgn[k], t, dense_h, t_c,
-                                            gcur[k], gnew[k], cont, yint, gtmp, p, z, tol)
-                    if troot[k] < t_star:
-                        t_star = troot[k]
+            t_star = earliest_root(events, interp, crossed, sgn, t, dense_h, t_c, gcur, gnew, cont,
+                                   yint, gtmp, p, z, tol, troot)
             if t_star <= t or t_star >= t_c - tol:
                 break
             interp((t_star - t) / dense_h, cont, yint)

@@ -33,7 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .dop853 import (fire_events, find_crossings, initial_step, locate_event, set_unknown_signs,
+from .dop853 import (earliest_root, fire_events, find_crossings, initial_step, set_unknown_signs,
                      write_outputs)
 from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events, rweight
 
@@ -600,13 +600,8 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
         fire = True
         t_star = t_c
         for _ in range(MAX_RELOCATE):
-            t_star = t_c
-            for k in range(ne):
-                if crossed[k]:
-                    troot[k] = locate_event(events, interp, k, sgn[k], t, dense_h, t_c,
-                                            gcur[k], gnew[k], cont, yint, gtmp, p, z, tol)
-                    if troot[k] < t_star:
-                        t_star = troot[k]
+            t_star = earliest_root(events, interp, crossed, sgn, t, dense_h, t_c, gcur, gnew, cont,
+                                   yint, gtmp, p, z, tol, troot)
             if t_star <= t or t_star >= t_c - tol:
                 break
             interp((t_star - t) / dense_h, cont, yint)
