@@ -415,9 +415,13 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
         todo = [pt for pt in points if (pt[0], pt[1]) not in done]
         if todo:
             if dask is not None:
-                _run_dask(spec, todo, dask, batch_size, finished)
+                wspec = copy.copy(spec)
+                wspec.out = None
+                run_dask(_run_batch, spec, wspec, (spec, todo[0][2]), todo, dask, batch_size,
+                         finished, spec.out)
             else:
-                _run_local(spec, todo, workers, batch_size, finished)
+                run_local(_run_point, _run_batch, spec, (spec, todo[0][2]), todo, workers,
+                          batch_size, finished)
     frames = [results[(d, i)]["table"] for d, i, _ in points if (d, i) in results]
     df = _sorted(pd.concat(frames, ignore_index=True)) if frames else pd.DataFrame()
     prov["wall"] = time.perf_counter() - start
@@ -472,7 +476,12 @@ def _batches(points, n_workers, batch_size):
     return [points[k:k + batch_size] for k in range(0, len(points), batch_size)]
 
 
-def _run_local(spec, todo, workers, batch_size, finished):
+def run_local(run_one, run_batch, payload, warm, todo, workers, batch_size, finished):
+    """Run the items of ``todo`` (tuples of arguments after ``payload``) on ``workers`` local
+    processes (None: the CPU count; 1: in this process by ``run_one(payload, *item)``), in batches
+    of ``run_batch(payload, batch)``; every spawned worker first runs ``_warm_worker(*warm)`` (loads
+    the kernel once). ``finished(record)`` is called for each result as it arrives. Shared by
+    sweeps and chaos maps (nld.chaos_map)."""
     import multiprocessing as mp
     if workers is None:
         workers = os.cpu_count() or 1
@@ -480,13 +489,13 @@ def _run_local(spec, todo, workers, batch_size, finished):
         raise InputError(f"workers = {workers!r}: must be an integer >= 1")
     workers = min(workers, len(todo))
     if workers == 1:
-        for d, i, v in todo:
-            finished(_run_point(spec, d, i, v))
+        for item in todo:
+            finished(run_one(payload, *item))
         return
     batches = _batches(todo, workers, batch_size)
     with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
-                             initializer=_warm_worker, initargs=(spec, todo[0][2])) as ex:
-        futures = [ex.submit(_run_batch, spec, b) for b in batches]
+                             initializer=_warm_worker, initargs=warm) as ex:
+        futures = [ex.submit(run_batch, payload, b) for b in batches]
         try:
             for fut in as_completed(futures):
                 for rec in fut.result():
@@ -513,22 +522,23 @@ def _dask_client(dask):
     raise InputError(f"dask = {dask!r}: give a distributed.Client or a scheduler address")
 
 
-def _run_dask(spec, todo, dask, batch_size, finished):
+def run_dask(run_batch, payload, worker_payload, warm, todo, dask, batch_size, finished, out):
+    """As :func:`run_local` on a Dask cluster (``dask``: a ``distributed.Client`` or a scheduler
+    address): every worker runs ``_warm_worker(*warm)``, batches go to ``run_batch(worker_payload,
+    batch)`` (``worker_payload``: the payload without an output directory) and come back to this
+    process, which writes each point's file under ``out`` (the cluster's workers need not see the
+    output directory) and calls ``finished(record)``."""
     from distributed import as_completed as dask_completed
     client, own = _dask_client(dask)
     try:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})))
-        client.run(_warm_worker, spec, todo[0][2])      # every worker loads the kernel once
-        # results come back to this process, which writes each point's file (the cluster's
-        # workers need not see the output directory)
-        wspec = copy.copy(spec)
-        wspec.out = None
-        futures = [client.submit(_run_batch, wspec, b, pure=False)
+        client.run(_warm_worker, *warm)      # every worker loads the kernel once
+        futures = [client.submit(run_batch, worker_payload, b, pure=False)
                    for b in _batches(todo, n_workers, batch_size)]
         for fut in dask_completed(futures):
             for rec in fut.result():
-                if spec.out is not None:
-                    _write_point(Path(spec.out), rec)
+                if out is not None:
+                    _write_point(Path(out), rec)
                 finished(rec)
     finally:
         if own:

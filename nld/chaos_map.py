@@ -54,7 +54,6 @@ import copy
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -381,9 +380,15 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     todo = [c for c in cells if c[0] not in done]
     if todo:
         if dask is not None:
-            _run_dask(job, todo, dask, batch_size, finished)
+            wjob = copy.copy(job)
+            wjob.spec = copy.copy(job.spec)
+            wjob.spec.out = None          # this process writes the files
+            _bif.run_dask(_run_cell_batch, job, wjob, (job.spec, todo[0][3]), todo, dask,
+                          batch_size, finished, job.spec.out)
         else:
-            _run_local(job, todo, workers, batch_size, finished)
+            # each worker loads the kernel once (the cells share one structure)
+            _bif.run_local(_run_cell, _run_cell_batch, job, (job.spec, todo[0][3]), todo, workers,
+                           batch_size, finished)
     df = _summary([results[c[0]]["table"] for c in cells if c[0] in results])
     prov["wall"] = time.perf_counter() - start
     prov["cells_run"] = len(todo)
@@ -417,53 +422,6 @@ def _check_extra(outp: Path, prov: dict) -> None:
         if json.dumps(old.get(k), sort_keys=True) != json.dumps(new, sort_keys=True):
             raise InputError(f"out = {str(outp)!r} holds a different run ({k} differs): use another "
                              "directory, or the same settings to resume")
-
-
-def _run_local(job, todo, workers, batch_size, finished):
-    import multiprocessing as mp
-    if workers is None:
-        workers = os.cpu_count() or 1
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"workers = {workers!r}: must be an integer >= 1")
-    workers = min(workers, len(todo))
-    if workers == 1:
-        for cell in todo:
-            finished(_run_cell(job, *cell))
-        return
-    batches = _bif._batches(todo, workers, batch_size)
-    # each worker loads the kernel once (bifurcation's initializer: the cells share one structure)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
-                             initializer=_bif._warm_worker, initargs=(job.spec, todo[0][3])) as ex:
-        futures = [ex.submit(_run_cell_batch, job, b) for b in batches]
-        try:
-            for fut in as_completed(futures):
-                for rec in fut.result():
-                    finished(rec)
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
-
-
-def _run_dask(job, todo, dask, batch_size, finished):
-    from distributed import as_completed as dask_completed
-    client, own = _bif._dask_client(dask)
-    try:
-        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
-        client.run(_bif._warm_worker, job.spec, todo[0][3])
-        wjob = copy.copy(job)
-        wjob.spec = copy.copy(job.spec)
-        wjob.spec.out = None          # this process writes the files
-        futures = [client.submit(_run_cell_batch, wjob, b, pure=False)
-                   for b in _bif._batches(todo, n_workers, batch_size)]
-        for fut in dask_completed(futures):
-            for rec in fut.result():
-                if job.spec.out is not None:
-                    _bif._write_point(Path(job.spec.out), rec)
-                finished(rec)
-    finally:
-        if own:
-            client.close()
 
 
 def load_chaos_map(out, *, sections: bool = False) -> pd.DataFrame:
