@@ -72,7 +72,8 @@ SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolut
                    "message", "per_revolution_check", "uncertainty_per_revolution_check"]
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
 # settings checked on resume besides bifurcation's (nld.bifurcation._SETTINGS)
-_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check")
+_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check",
+                   "lyapunov_integrator")
 # exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
 CHECK_FACTOR = 3.0
 
@@ -88,6 +89,7 @@ class _Job:
     seed: int
     zero_one: dict
     rtol_check: float | None = None
+    lyapunov_method: str = "dopri5"
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -191,7 +193,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
             zo = zero_one_test(series, **job.zero_one)
             K, K_spread = zo.K, zo.spread
         # the largest exponent, continuing from the end of the section
-        system = SceneSystem(scene, kernel=kern)
+        system = SceneSystem(scene, kernel=kern, method=job.lyapunov_method)
         system.y0 = np.array(sec.y_final, dtype=float)
         system.z0 = np.array(sec.z_final, dtype=float)
         res = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
@@ -277,7 +279,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
               d0: float | None = None, seed: int = 0, observable: str | None = None,
               zero_one: dict | None = None, period_tol: float = 1e-6,
               max_steps: int = 50_000_000, batch_size: int | None = None,
-              progress=None, rtol_check: float | None = None) -> pd.DataFrame:
+              progress=None, rtol_check: float | None = None,
+              lyapunov_method: str = "dopri5") -> pd.DataFrame:
     """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
 
     scene: Scene, built-in name or TOML path; base_overrides: ``--set`` values applied first.
@@ -293,6 +296,12 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
     from the same state; the cell is "uncertain" unless both agree (module docstring, step 4).
     It doubles the exponent's cost.
+    lyapunov_method: the integrator of both trajectories of the exponent (and of its check):
+    "dopri5" (default), "dop853" (stops with a message where its stiffness detection fires) or
+    "rodas" (Rodas4, experimental: tried on cells whose journal stays in stiff damped contact, it
+    did not cure their tolerance-dependent exponent, is 10-100 times slower with its
+    finite-difference Jacobian, and gave a wrong positive exponent on a period-1 orbit at rtol
+    1e-5 and 1e-6; docs/lyapunov.md). The sections always use DOPRI5.
     observable: the section observable of the 0-1 test (default ``<J>.ex`` of the first clearance
     joint); zero_one: keyword arguments of :func:`nld.zero_one.zero_one_test` (default none:
     100 frequencies, seed 0). period_tol: a section repeating to this relative tolerance is a fixed
@@ -324,6 +333,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     if d0 is not None and not (isinstance(d0, (int, float)) and math.isfinite(d0) and d0 > 0):
         raise InputError(f"d0 = {d0!r}: must be a positive number")
     zero_one = dict(zero_one or {})
+    from .systems import _check_system_method
+    lyapunov_method = _check_system_method(lyapunov_method)
     if rtol_check is not None and not (isinstance(rtol_check, (int, float))
                                        and 1e-14 <= rtol_check < 1):
         raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
@@ -336,16 +347,17 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
                       out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"))
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
                d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
-               rtol_check=None if rtol_check is None else float(rtol_check))
+               rtol_check=None if rtol_check is None else float(rtol_check),
+               lyapunov_method=lyapunov_method)
     settings = dict(scene=sc.name, scene_parameters=raw, param=[keys_x, keys_y], values=[vx, vy],
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
                     rtol=spec.rtol, continuation=False, up_down=False, max_steps=spec.max_steps,
                     period_tol=spec.period_tol, n_max=spec.n_max, lyapunov=True,
                     lyapunov_revs=spec.lyapunov_revs, lyapunov_rtol=spec.lyapunov_rtol,
                     d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one,
-                    rtol_check=job.rtol_check)
+                    rtol_check=job.rtol_check, lyapunov_integrator=lyapunov_method)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
-                integrator="dopri5", base_overrides=_plain_overrides(base_overrides),
+                integrator=f"dopri5 (sections), {lyapunov_method} (exponents)", base_overrides=_plain_overrides(base_overrides),
                 lyapunov_method="benettin (nld.lyapunov.lyapunov_benettin)",
                 zero_one_method="Gottwald-Melbourne 2009 modified correlation (nld.zero_one)",
                 **settings)
@@ -419,7 +431,8 @@ def _check_extra(outp: Path, prov: dict) -> None:
         return
     for k in _EXTRA_SETTINGS:
         new = json.loads(json.dumps(prov.get(k), default=_bif._json_default))
-        if json.dumps(old.get(k), sort_keys=True) != json.dumps(new, sort_keys=True):
+        was = old.get(k, "dopri5" if k == "lyapunov_integrator" else None)   # maps before the option
+        if json.dumps(was, sort_keys=True) != json.dumps(new, sort_keys=True):
             raise InputError(f"out = {str(outp)!r} holds a different run ({k} differs): use another "
                              "directory, or the same settings to resume")
 
@@ -609,6 +622,9 @@ def add_arguments(subparsers):
     sp.add_argument("--rtol-check", type=_rtol_arg, default=None, metavar="R",
                     help="recompute each exponent at this second tolerance; cells where the two "
                          "disagree are 'uncertain' (default: no check)")
+    sp.add_argument("--lyapunov-method", choices=("dopri5", "dop853", "rodas"), default="dopri5",
+                    help="integrator of the exponent's two trajectories (default dopri5; rodas "
+                         "is experimental and slow on contact scenes, see docs/lyapunov.md)")
     sp.add_argument("--d0", type=_number_arg("--d0"), default=None, metavar="D0",
                     help="initial separation, scaled norm (default 1e-5)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
@@ -657,6 +673,7 @@ def cli_chaos_map(args) -> int:
                    transient_revs=args.transient_revs, revs=args.revs,
                    lyapunov_revs=args.lyapunov_revs, rtol=args.rtol,
                    lyapunov_rtol=args.lyapunov_rtol, rtol_check=args.rtol_check, d0=args.d0,
+                   lyapunov_method=args.lyapunov_method,
                    seed=args.seed,
                    observable=args.observable, workers=args.workers, dask=args.dask,
                    out=args.out, resume=args.resume, base_overrides=args.overrides,

@@ -158,6 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
     sp.add_argument("--d0", type=float, default=1e-5, help="initial separation, scaled norm (default 1e-5)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the initial perturbation (default 0)")
+    sp.add_argument("--method", choices=("dopri5", "dop853", "rodas"), default="dopri5",
+                    help="integrator of both trajectories (default dopri5; rodas is experimental "
+                         "and slow on contact scenes, see docs/lyapunov.md)")
     sp.add_argument("--spectrum", type=int, default=0, metavar="K",
                     help="also the first K exponents by the perturbation-vector method")
     sp.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -331,7 +334,7 @@ def cmd_lyapunov(args) -> int:
             raise InputError(f"--{name.replace('_', '-')} = {v!r}: must be a positive number")
     if args.transient <= 0 or args.revs < 1:
         raise InputError(f"--revs = {args.revs!r}: must be at least 1 revolution")
-    system = SceneSystem(args.scene, args.overrides)
+    system = SceneSystem(args.scene, args.overrides, method=args.method)
     T = system.period
     res = lyapunov_benettin(system, transient=args.transient * T, total=args.revs * T, d0=args.d0,
                             rtol=args.rtol, seed=args.seed)
@@ -339,7 +342,7 @@ def cmd_lyapunov(args) -> int:
            "uncertainty_per_s": res.uncertainty, "exponent_per_revolution": res.per_revolution,
            "uncertainty_per_revolution": res.uncertainty_per_revolution, "method": res.method,
            "transient_revs": args.transient, "revs": args.revs, "rtol": args.rtol, "d0": args.d0,
-           "seed": args.seed}
+           "seed": args.seed, "integrator": args.method}
     if args.spectrum > 0:
         sp = lyapunov_spectrum(system, args.spectrum, transient=args.transient * T,
                                total=args.revs * T, rtol=args.rtol)

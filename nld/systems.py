@@ -15,9 +15,11 @@ needs (equations, parameters, initial state, per-state scales, forcing period), 
   ``nld.simulate.state_scales`` and the crank period.
 * built-ins: :func:`lorenz`, :func:`duffing`, :func:`logistic`, :func:`henon`, :func:`linear`.
 
-:func:`advance` integrates a continuous system over one interval with the adaptive DOPRI5 of
-``nld.integrators.dopri5`` (relative tolerance ``rtol``, absolute tolerance ``rtol * scales``
-per state, events located so contact onsets of a scene are handled). :func:`iterate` applies a map.
+:func:`advance` integrates a continuous system over one interval with the system's integrator
+(``method``: the adaptive DOPRI5 of ``nld.integrators.dopri5`` by default, or DOP853, or the stiff
+Rodas4 of ``nld.integrators.rosenbrock``; relative tolerance ``rtol``, absolute tolerance
+``rtol * scales`` per state, events located so contact onsets of a scene are handled).
+:func:`iterate` applies a map.
 
 Compilation: numba's disk cache only finds an integrator specialisation compiled inside a
 ``@njit(cache=True)`` function whose rhs is a module global (see ``nld/integrators/dopri5.py``).
@@ -37,12 +39,22 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError, SolveError
-from .integrators.dopri5 import dopri5, no_events, no_on_event, status_message
+from .integrators.dop853 import dop853
+from .integrators import method_status_message
+from .integrators.dopri5 import dopri5, no_events, no_on_event
+from .integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
            "lorenz", "duffing", "logistic", "henon", "linear"]
 
 DEFAULT_MAX_STEPS = 50_000_000
+SYSTEM_METHODS = ("dopri5", "dop853", "rodas")
+
+
+def _check_system_method(method) -> str:
+    if method not in SYSTEM_METHODS:
+        raise InputError(f"method = {method!r}: must be one of {', '.join(SYSTEM_METHODS)}")
+    return method
 
 
 def _as_vector(x, what: str) -> np.ndarray:
@@ -85,6 +97,11 @@ class ContinuousSystem:
     time_unit: unit of t (default "s"): exponents are reported per time_unit.
     t0:     the time of y0 (default 0); analyses start there (the forcing phase of a forced
             system or a scene depends on it).
+    method: the integrator of :func:`advance` and of every analysis: "dopri5" (default),
+            "dop853" (stops with status STIFF where Hairer's stiffness detection fires) or
+            "rodas" (Rodas4 with a finite-difference Jacobian; reproduces Lorenz' exponent, but
+            on contact scenes it is slow and its exponents are not reliable: docs/lyapunov.md,
+            "Tolerance-dependent exponents"). ``solve=`` must then be a wrapper of that method.
     """
 
     is_map = False
@@ -92,7 +109,8 @@ class ContinuousSystem:
     def __init__(self, rhs, y0, p=(), name: str = "system", state_names=None, scales=None,
                  period: float | None = None, *, z0=None, events=None, on_event=None,
                  n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
-                 t0: float = 0.0):
+                 t0: float = 0.0, method: str = "dopri5"):
+        self.method = _check_system_method(method)
         self.rhs = rhs
         self.y0 = _as_vector(y0, "y0")
         self.n = self.y0.size
@@ -129,28 +147,42 @@ class ContinuousSystem:
 
     def solve(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
               max_log):
-        """DOPRI5 with this system's functions (see ``nld.integrators.dopri5.dopri5``)."""
+        """The system's integrator (``method``) with this system's functions (arguments and
+        results as ``nld.integrators.dopri5.dopri5``)."""
         if self._solve is None:
-            self._solve = _make_solver(self.rhs, self.events, self.on_event)
+            self._solve = _make_solver(self.rhs, self.events, self.on_event, self.method)
         return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
                            n_events, max_log)
 
     def __repr__(self):
         per = "" if self.period is None else f", period={self.period:.6g} {self.time_unit}"
-        return f"ContinuousSystem({self.name!r}, n={self.n}{per})"
+        meth = "" if self.method == "dopri5" else f", method={self.method!r}"
+        return f"ContinuousSystem({self.name!r}, n={self.n}{per}{meth})"
 
 
-def _make_solver(rhs, events, on_event):
-    """A jitted DOPRI5 wrapper for user functions (compiled once per process, not cached).
+def _make_solver(rhs, events, on_event, method: str = "dopri5"):
+    """A jitted wrapper of the integrator ``method`` for user functions (compiled once per
+    process, not cached).
 
     ``dopri5`` is ``cache=True, inline='always'``: calling it from Python with function
     arguments would try to write dispatcher types into its disk-cache index, which fails once
     that index holds types of functions from other processes; inlined into this uncached
     closure it never touches the cache."""
-    @njit
-    def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
-        return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-                      max_steps, n_events, max_log)
+    if method == "dop853":
+        @njit
+        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+            return dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                          hmax, max_steps, n_events, max_log)
+    elif method == "rodas":
+        @njit
+        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+            return rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                         hmax, max_steps, n_events, max_log)
+    else:
+        @njit
+        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+            return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                          hmax, max_steps, n_events, max_log)
     return solve
 
 
@@ -194,7 +226,8 @@ class DiscreteMap:
 # ---------------------------------------------------------------- integration of one interval
 def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 1e-10, *,
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
-    """Integrate ``system`` from (t0, y, z) to t1 with DOPRI5; returns (y(t1), z(t1)).
+    """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
+    DOPRI5 by default); returns (y(t1), z(t1)).
 
     rtol: relative tolerance; atol: absolute tolerance per state (default ``system.tolerance(rtol)``).
     Events (contact onsets of a scene) are located and handled by ``on_event``, which updates
@@ -214,7 +247,8 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
                        int(system.n_events), 1)
     status, t_reached, Y, n_out = out[0], out[1], out[2], out[3]
     if status != 0 or n_out < 1:
-        raise SolveError(f"{system.name}: " + status_message(status, t_reached, out[4]))
+        raise SolveError(f"{system.name}: " + method_status_message(system.method, status, t_reached,
+                                                                      out[4]))
     return Y[0].copy(), z
 
 
@@ -390,7 +424,8 @@ def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
 
 
 # ---------------------------------------------------------------- scenes
-def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSystem:
+def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
+                method: str = "dopri5") -> ContinuousSystem:
     """A mechanism scene as a :class:`ContinuousSystem`.
 
     scene_or_name: a Scene, a built-in scene name or a TOML path; overrides as for
@@ -399,7 +434,9 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSyst
     ``nld.simulate.initial_state``; scales from ``nld.simulate.state_scales`` (angles scaled by
     clearance / lever arm, slides by the clearance, rates by those times the crank speed);
     period = crank period; hmax = period / 20 as in ``simulate``. Extra attributes: ``scene``,
-    ``kernel``.
+    ``kernel``. method: the analyses' integrator, "dopri5" (default, whatever the scene's
+    ``[scene] method``: analysis results do not change with a scene file's recommendation),
+    "dop853" or "rodas" (the kernel's disk-cached ``solve_dop853`` / ``solve_rodas``).
     """
     from .kernel import compile_scene
     from .scene import load_scene
@@ -423,9 +460,12 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None) -> ContinuousSyst
     except InputError:
         period = None
     mod = kern.module
+    solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
+             "rodas": mod.solve_rodas}[_check_system_method(method)]
     sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
                             state_scales(kern, q), period, z0=z0, events=mod.events,
-                            on_event=mod.on_event, n_events=kern.n_events, solve=mod.solve)
+                            on_event=mod.on_event, n_events=kern.n_events, solve=solve,
+                            method=method)
     sysm.scene = scene
     sysm.kernel = kern
     sysm.tolerance_fn = lambda rtol, _k=kern, _q=q: tolerances(_k, _q, rtol)
@@ -455,5 +495,6 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
                        rtol * system.scales, 0.0, float(system.hmax), DEFAULT_MAX_STEPS,
                        int(system.n_events), 1)
     if out[0] != 0:
-        raise SolveError(f"{system.name}: " + status_message(out[0], out[1], out[4]))
+        raise SolveError(f"{system.name}: " + method_status_message(system.method, out[0], out[1],
+                                                                      out[4]))
     return t_eval, out[2]

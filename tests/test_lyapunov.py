@@ -11,7 +11,7 @@ import pytest
 from numba import njit
 
 from nld import systems as S
-from nld.errors import InputError
+from nld.errors import InputError, SolveError
 from nld.lyapunov import (_cross_events, _import_nolds, lyapunov_benettin, lyapunov_nolds,
                           lyapunov_spectrum)
 
@@ -219,3 +219,31 @@ def test_user_system_without_cached_solver():
     s = S.ContinuousSystem(S.lorenz_rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "lorenz-user")
     r = lyapunov_benettin(s, total=1000.0)
     assert abs(r.exponent - LORENZ[0]) < 0.03
+
+
+# ------------------------------------------------------------------ the stiff integrator
+def test_method_is_checked_and_carried():
+    with pytest.raises(InputError, match="method"):
+        S.SceneSystem("slider_crank", method="euler")
+    with pytest.raises(InputError, match="method"):
+        S.ContinuousSystem(S.lorenz_rhs, [1.0, 1.0, 1.0], method="rk4")
+    s = S.SceneSystem("slider_crank", method="rodas")
+    assert s.method == "rodas" and s._solve is s.kernel.module.solve_rodas
+
+
+def test_lorenz_with_the_stiff_method():
+    """Benettin with both trajectories integrated by Rodas4 (finite-difference Jacobian of a user
+    right-hand side) reproduces Lorenz' 0.906 as DOPRI5 does."""
+    s = S.ContinuousSystem(S.lorenz_rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "lorenz-rodas",
+                           method="rodas")
+    r = lyapunov_benettin(s, total=1000.0, rtol=1e-9)
+    assert abs(r.exponent - LORENZ[0]) < 0.03 and r.uncertainty < 0.03
+
+
+def test_scene_dop853_reports_stiffness_instead_of_an_exponent():
+    """On the period-1 slider-crank (journal in damped continuous contact) DOP853's stiffness
+    detection stops the run at rtol 1e-10: the exponent is refused with a message naming the
+    method and the remedy, not computed from stability-limited steps (docs/lyapunov.md)."""
+    s = S.SceneSystem("slider_crank", PERIODIC, method="dop853")
+    with pytest.raises(SolveError, match="dop853: the problem became stiff"):
+        lyapunov_benettin(s, transient=30 * s.period, total=20 * s.period, rtol=1e-10)
