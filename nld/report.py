@@ -97,6 +97,24 @@ def _new_figure(title: str | None = None):
     return fig
 
 
+def _fit(text: str, room_pt: float, size: float) -> str:
+    """``text`` cut (ending in '…') to at most ``room_pt`` points wide at font ``size`` [pt], so the
+    footer's title never runs into the centred page number."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import text_to_path
+    prop = FontProperties(size=size)
+
+    def width(s: str) -> float:
+        return text_to_path.get_text_width_height_descent(s, prop, ismath=False)[0]
+
+    if width(text) <= room_pt:
+        return text
+    n = len(text)
+    while n > 1 and width(text[:n].rstrip() + "…") > room_pt:
+        n -= 1
+    return text[:n].rstrip() + "…"
+
+
 class Report:
     """A PDF report built page by page; use as a context manager (see the module docstring).
 
@@ -370,7 +388,8 @@ class Report:
         from . import __version__
         from .provenance import git_hash
         y = 0.018
-        fig.text(_MARGIN, y, self.title, fontsize=7.5, ha="left", va="bottom", color="#444444")
+        fig.text(_MARGIN, y, _fit(self.title, (0.5 - _MARGIN - 0.05) * fig.get_figwidth() * 72.0, 7.5),
+                 fontsize=7.5, ha="left", va="bottom", color="#444444")
         fig.text(0.5, y, f"page {i} of {n}", fontsize=7.5, ha="center", va="bottom", color="#444444")
         fig.text(1 - _MARGIN, y, f"nld {__version__} · git {git_hash()[:12]}", fontsize=7.5,
                  ha="right", va="bottom", color="#444444")

@@ -91,3 +91,21 @@ def test_save_study_data_stacks_cases(tmp_path):
     assert list(df["case"]) == ["a", "a", "b"]
     assert np.isnan(df["y"].iloc[0]) and df["y"].iloc[2] == 3.0
     assert prov == {"study": "test"}
+
+
+def test_footer_title_never_overlaps_the_page_number(tmp_path):
+    # a long study title (chaos_onset's) used to run into 'page i of N' in the footer
+    title = ("Onset of chaos over clearance x friction: slider-crank and excavator "
+             "(largest Lyapunov exponent)")
+    rep = Report(tmp_path / "f.pdf", title)
+    with rep.style():
+        fig, _ = rep.subplots(1, 1)
+    n_before = len(fig.texts)
+    rep._footer(fig, 5, 9)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    left, centre, right = (t.get_window_extent(renderer) for t in fig.texts[n_before:])
+    assert left.x1 < centre.x0 and centre.x1 < right.x0
+    assert fig.texts[n_before].get_text().endswith("…")
+    import matplotlib.pyplot as plt
+    plt.close(fig)
