@@ -62,14 +62,41 @@ QUICK = {
 MAPS = {"slider_crank": SC, "excavator": EX}
 
 
-def run_map(name: str, st: dict, workers: int):
+def work_dir(out_dir: Path, name: str, mode: str) -> Path:
+    """Where the map ``name`` keeps one parquet file per finished cell, so an interrupted study
+    run again resumes instead of starting over (the full mode takes about 35 min). The directory
+    is tied to the git commit: cells computed by other code are not reused."""
+    from nld.provenance import git_hash
+    return Path(out_dir) / ".work" / f"{STEM}-{mode}-{name}-{git_hash()[:12]}"
+
+
+def run_map(name: str, st: dict, workers: int, work: Path | None = None):
+    """One exponent map; cells already in ``work`` (same settings) are read, not recomputed."""
+    import shutil
+
     from nld.chaos_map import chaos_map
+    from nld.errors import InputError
     m = MAPS[name]
     t0 = time.perf_counter()
-    df = chaos_map(m["scene"], m["param_x"], st["values_x"], m["param_y"], st["values_y"],
-                   transient_revs=st["transient_revs"], revs=st["revs"],
-                   lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"], workers=workers,
-                   rtol_check=st.get("rtol_check"))
+    if work is not None:
+        for old in work.parent.glob(f"{STEM}-*-{name}-*"):
+            if old != work and old.is_dir():
+                shutil.rmtree(old)           # cells of other code or another mode
+
+    def run(resume: bool):
+        return chaos_map(m["scene"], m["param_x"], st["values_x"], m["param_y"], st["values_y"],
+                         transient_revs=st["transient_revs"], revs=st["revs"],
+                         lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"],
+                         workers=workers, rtol_check=st.get("rtol_check"), out=work, resume=resume)
+
+    if work is None:
+        df = run(False)
+    else:
+        try:
+            df = run(True)
+        except InputError:                   # the directory holds a map with other settings
+            shutil.rmtree(work)
+            df = run(True)
     walls = df.attrs.get("wall_s", {})
     df["wall_s"] = [float(walls.get(int(iy) * len(st["values_x"]) + int(ix), math.nan))
                     for ix, iy in zip(df["ix"], df["iy"])]
@@ -277,7 +304,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
 
     maps, walls = {}, {}
     for name in MAPS:
-        maps[name], walls[name] = run_map(name, st_all[name], workers)
+        maps[name], walls[name] = run_map(name, st_all[name], workers, work_dir(out_dir, name, mode))
     summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
     bnd = pd.concat([boundary(n, maps[n]) for n in MAPS], ignore_index=True)
     wall = time.perf_counter() - start
@@ -295,7 +322,12 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                 "Workers": workers,
                 "Compute wall time": ("not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else
                                       f"{wall:.1f} s (slider-crank {walls['slider_crank']:.1f} s, "
-                                      f"excavator {walls['excavator']:.1f} s)")}
+                                      f"excavator {walls['excavator']:.1f} s)"),
+                "Cell time (sum over cells)": ("not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else
+                                               ", ".join(f"{n} {float(maps[n]['wall_s'].sum()):.0f} s"
+                                                         for n in MAPS)
+                                               + " (cells finished by an interrupted earlier run are "
+                                                 "read back, not recomputed)")}
     rep = Report(pdf, TITLE, scene=None, provenance=prov, settings=settings,
                  subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
                  subject="Largest Lyapunov exponent over clearance x friction, onset boundary",
