@@ -490,7 +490,8 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
     value="lambda": pcolormesh of the exponent per crank revolution (diverging colours, 0 white),
       the lambda = 0 contour (the onset boundary, drawn through the cell centres, linear
       interpolation; only where both neighbours are finite), cells whose sign is not established
-      (|lambda| <= uncertainty) hatched "//", failed cells grey with an "x".
+      (|lambda| <= uncertainty, or verdict "uncertain": the exponents at rtol and rtol_check
+      disagree) hatched "//", failed cells grey with an "x".
     value="K": the 0-1 test's K (0 regular ... 1 chaotic), with the K = 0.5 contour; cells
       without K grey.
     x_scale, y_scale: factors for the axes (e.g. 1e3 with a label in mm); x_log, y_log: log axes
@@ -512,8 +513,13 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
     failed = np.zeros(Z.shape, dtype=bool)
     col = "per_revolution" if value == "lambda" else "K"
     Z[iy, ix] = df[col].astype(float).to_numpy()
+    uncertain = np.zeros(Z.shape, dtype=bool)
+    checked = "per_revolution_check" in df and df["per_revolution_check"].notna().any()
     if value == "lambda":
         U[iy, ix] = df["uncertainty_per_revolution"].astype(float).to_numpy()
+        uncertain[iy, ix] = np.abs(Z[iy, ix]) <= U[iy, ix]
+        if "verdict" in df:          # includes the cells whose exponent fails the tolerance check
+            uncertain[iy, ix] |= (df["verdict"] == "uncertain").to_numpy()
     failed[iy, ix] = (df["status"] != "ok").to_numpy() | ~np.isfinite(Z[iy, ix])
     x_log = _is_log(xs) if x_log is None else x_log
     y_log = _is_log(ys) if y_log is None else y_log
@@ -548,7 +554,7 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
             if failed[j, i]:
                 ax.add_patch(Rectangle((xe[i], ye[j]), w, h, fill=False, hatch="xx",
                                        edgecolor="#606060", lw=0))
-            elif value == "lambda" and abs(Z[j, i]) <= U[j, i]:
+            elif value == "lambda" and uncertain[j, i]:
                 ax.add_patch(Rectangle((xe[i], ye[j]), w, h, fill=False, hatch="//",
                                        edgecolor="#404040", lw=0))
             if annotate and np.isfinite(Z[j, i]):
@@ -559,7 +565,8 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
                 ax.text(xm, ym, txt, ha="center", va="center", fontsize=6.5, color="black")
     if value == "lambda":
         ax.add_patch(Rectangle((0, 0), 0, 0, fill=False, hatch="//", edgecolor="#404040",
-                               label="|λ₁| ≤ uncertainty"))
+                               label=("uncertain: |λ₁| ≤ unc. or tolerances disagree" if checked
+                                      else "|λ₁| ≤ uncertainty")))
     if failed.any():
         ax.add_patch(Rectangle((0, 0), 0, 0, fill=False, hatch="xx", edgecolor="#606060",
                                label="failed / no value"))

@@ -159,7 +159,8 @@ def _fig_map(rep, name, df, st, value="lambda"):
            (f", checked at rtol {st['rtol_check']:g} (a cell whose two exponents disagree is hatched as "
             "uncertain)" if st.get("rtol_check") else "") + ". "
            "Colour and number: λ1 per crank revolution (± its uncertainty); black line: λ1 = 0, the onset "
-           "boundary, interpolated between cell centres; hatched: |λ1| <= uncertainty.")
+           "boundary, interpolated between cell centres; hatched: verdict uncertain (|λ1| <= uncertainty"
+           + (", or the two tolerances disagree)." if st.get("rtol_check") else ")."))
     if value == "K":
         cap = (f"{m['label']}. The 0-1 test for chaos (Gottwald-Melbourne) on the {st['revs']}-point "
                "section of the journal eccentricity: K near 0 regular, near 1 chaotic (rough with this "
@@ -243,6 +244,23 @@ def _texts(summ, bnd, maps, st_all, mode_label, walls):
     return intro, found
 
 
+def _check_discussion(sc: pd.DataFrame) -> str:
+    """What the tolerance check says, per friction value (empty without a check)."""
+    if "per_revolution_check" not in sc or not sc["per_revolution_check"].notna().any():
+        return ""
+    parts = []
+    for y, g in sc.groupby("y", sort=True):
+        v = g["verdict"]
+        parts.append(f"μ = {y:g}: {(v == 'chaotic').sum()} C / {(v == 'regular').sum()} R / "
+                     f"{(v == 'uncertain').sum()} ?")
+    ok = sc[sc["status"] == "ok"]
+    lower = int((ok["per_revolution_check"] < ok["per_revolution"]).sum())
+    return (" The tolerance check by friction value (chaotic / regular / uncertain): " + "; ".join(parts) +
+            f". In {lower} of {len(ok)} cells the exponent is lower at the tighter tolerance. A verdict "
+            "is established mainly where the exponent is clearly positive or negative at both tolerances; "
+            "an onset boundary is claimed only there.")
+
+
 def _discussion(summ, maps):
     sc = maps["slider_crank"]
     ex = maps["excavator"]
@@ -267,7 +285,7 @@ def _discussion(summ, maps):
          "No clear trend with the clearance. " if abs(rho_c) <= 0.3 else "Larger clearances tend to smaller exponents. ") +
         "The onset boundary is not a single smooth curve: several cells near λ1 = 0 alternate in sign "
         "between neighbours (windows of regular motion inside the chaotic region, and finite-time estimates "
-        "over 100 revolutions), so the contour is fragmented; read it as a band.",
+        "over 100 revolutions), so the contour is fragmented; read it as a band." + _check_discussion(sc),
         f"Excavator: {ex_reg} of {len(ex)} cells regular. " + (
             "Every cell has a positive exponent: the journals rattle in their clearances over the short "
             "runs at every clearance and friction tried, so no onset boundary lies inside this grid. The "
@@ -281,8 +299,9 @@ def _discussion(summ, maps):
         "Why the results may differ from the sources: the sources' dimensions, speeds and contact "
         "parameters are not those of our scenes (docs/models/), none of them published a map or an "
         "exponent, and Rhee & Akay / Olyaei & Ghazavi could not be read here ([U]). Finite-time exponents "
-        "near zero are hatched (|λ1| <= uncertainty): their sign is not established, and the boundary "
-        "drawn through them is uncertain by about one cell.",
+        "near zero, and exponents that change with the tolerance (stiff contact states, docs/lyapunov.md), "
+        "are hatched as uncertain: their sign or size is not established, and a boundary drawn through "
+        "them is not a result.",
     ]
     return lines
 

@@ -192,6 +192,20 @@ def test_plot_draws_the_onset_contour(reference):
     assert "failed / no value" in fig.axes[0].get_legend_handles_labels()[1]
     plt.close(fig)
 
+    # a cell whose exponents at the two tolerances disagree is hatched though |lambda| > uncertainty
+    def hatched(frame):
+        f = chaos_map_plot(frame, annotate=False)
+        n = sum(1 for p in f.axes[0].patches if p.get_hatch() == "//" and p.get_width() > 0)
+        plt.close(f)
+        return n
+    clear = (df["per_revolution"].abs() > df["uncertainty_per_revolution"]) & (df["verdict"] != "uncertain")
+    assert clear.any()
+    k = clear.idxmax()
+    unsure = df.copy()
+    unsure.loc[k, "verdict"] = "uncertain"
+    unsure["per_revolution_check"] = unsure["per_revolution"]
+    assert hatched(unsure) == hatched(df) + 1
+
 
 def test_cli_chaos_map(monkeypatch, capsys, tmp_path):
     import argparse
