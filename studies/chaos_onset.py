@@ -64,8 +64,9 @@ MAPS = {"slider_crank": SC, "excavator": EX}
 
 def work_dir(out_dir: Path, name: str, mode: str) -> Path:
     """Where the map ``name`` keeps one parquet file per finished cell, so an interrupted study
-    run again resumes instead of starting over (the full mode takes about 35 min). The directory
-    is tied to the git commit: cells computed by other code are not reused."""
+    run again resumes instead of starting over (the full mode takes about 31 min on 2 idle
+    cores). The directory is tied to the git commit: cells computed by other code are not
+    reused."""
     from nld.provenance import git_hash
     return Path(out_dir) / ".work" / f"{STEM}-{mode}-{name}-{git_hash()[:12]}"
 
