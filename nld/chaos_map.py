@@ -334,7 +334,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
         raise InputError(f"d0 = {d0!r}: must be a positive number")
     zero_one = dict(zero_one or {})
     from .systems import _check_system_method
-    lyapunov_method = _check_system_method(lyapunov_method)
+    lyapunov_method = _check_system_method(lyapunov_method, "lyapunov_method")
     if rtol_check is not None and not (isinstance(rtol_check, (int, float))
                                        and 1e-14 <= rtol_check < 1):
         raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
@@ -357,7 +357,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
                     d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one,
                     rtol_check=job.rtol_check, lyapunov_integrator=lyapunov_method)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
-                integrator=f"dopri5 (sections), {lyapunov_method} (exponents)", base_overrides=_plain_overrides(base_overrides),
+                integrator=f"dopri5 (sections), {lyapunov_method} (exponents)",
+                base_overrides=_plain_overrides(base_overrides),
                 lyapunov_method="benettin (nld.lyapunov.lyapunov_benettin)",
                 zero_one_method="Gottwald-Melbourne 2009 modified correlation (nld.zero_one)",
                 **settings)

@@ -51,9 +51,10 @@ DEFAULT_MAX_STEPS = 50_000_000
 SYSTEM_METHODS = ("dopri5", "dop853", "rodas")
 
 
-def _check_system_method(method) -> str:
+def _check_system_method(method, field: str = "method") -> str:
+    """``method`` if it is one of SYSTEM_METHODS, else InputError naming ``field``."""
     if method not in SYSTEM_METHODS:
-        raise InputError(f"method = {method!r}: must be one of {', '.join(SYSTEM_METHODS)}")
+        raise InputError(f"{field} = {method!r}: must be one of {', '.join(SYSTEM_METHODS)}")
     return method
 
 

@@ -106,6 +106,46 @@ def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
     np.testing.assert_array_equal(pts[(pts.ix == 1) & (pts.iy == 1)].value, sec.table["B.ex"])
 
 
+def test_the_exponent_integrator_reaches_the_cell_and_the_resume_check(reference, tmp_path):
+    """lyapunov_method="dop853": the cell's exponent is the DOP853 Benettin value from the end of
+    the (DOPRI5) section, not DOPRI5's (-26.66 against -119.97 per s, measured); provenance names
+    both. Resuming a map with another exponent integrator is refused; a map written before the
+    option (no lyapunov_integrator in its provenance) resumes as DOPRI5."""
+    import shutil
+
+    from nld.bifurcation import PROVENANCE
+    from nld.lyapunov import lyapunov_benettin
+    from nld.poincare import stroboscopic
+    from nld.systems import SceneSystem
+    df = chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, lyapunov_method="dop853", **KW)
+    ov = [f"{PX}=5e-4", f"{PY}=0.1"]
+    sec = stroboscopic(SCENE, transient_revs=2, revs=4, observables=["B.ex"], rtol=1e-8,
+                       overrides=ov)
+    lam = {}
+    for m in ("dop853", "dopri5"):
+        s = SceneSystem(SCENE, ov, method=m)
+        s.y0, s.z0 = sec.y_final.copy(), sec.z_final.copy()
+        lam[m] = lyapunov_benettin(s, transient=0.0, total=4 * s.period, rtol=1e-8).exponent
+    row = df.iloc[0]
+    assert row.status == "ok" and row.exponent == lam["dop853"] != lam["dopri5"]
+    prov = df.attrs["provenance"]
+    assert prov["lyapunov_integrator"] == "dop853" and "dop853 (exponents)" in prov["integrator"]
+    with pytest.raises(InputError, match="lyapunov_method = .euler."):
+        chaos_map(SCENE, PX, [5e-4], PY, [0.1], lyapunov_method="euler", **KW)
+    ref, out = reference
+    old = tmp_path / "old"
+    shutil.copytree(out, old)
+    with pytest.raises(InputError, match="lyapunov_integrator differs"):
+        chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=old, resume=True,
+                  lyapunov_method="rodas", **KW)
+    p = json.loads((old / PROVENANCE).read_text())
+    del p["lyapunov_integrator"]
+    (old / PROVENANCE).write_text(json.dumps(p))
+    again = chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=old, resume=True, **KW)
+    assert again.attrs["provenance"]["cells_run"] == 0
+    pd.testing.assert_frame_equal(again, ref)
+
+
 def test_killed_map_resumed_equals_uninterrupted(reference, tmp_path):
     """Killed after two cells, resumed on the local pool of 2 workers: the same table, and the
     finished cells are not run again."""
