@@ -187,6 +187,10 @@ def _warm_worker(spec: _Spec, value) -> int:
     """Load the kernel (numba disk cache) once per worker process; returns the pid."""
     global _WORKER_SPEC
     _WORKER_SPEC = spec
+    from .interrupt import ignore_in_worker
+    from .progress import set_default
+    ignore_in_worker()          # Ctrl-C reaches the process group: the main process ends the pool
+    set_default(False)          # no progress bars from workers
     if spec.cache_dir and not os.environ.get("NLD_CACHE_DIR"):
         os.environ["NLD_CACHE_DIR"] = spec.cache_dir
     try:
@@ -328,7 +332,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
           lyapunov: bool = False, overrides=None, max_steps: int = 50_000_000,
           period_tol: float = 1e-6, n_max: int = 16, lyapunov_revs: int | None = None,
           lyapunov_rtol: float | None = None, batch_size: int | None = None,
-          progress=None) -> pd.DataFrame:
+          progress=None, on_point=None) -> pd.DataFrame:
     """Bifurcation sweep of ``param`` over ``values`` (see the module docstring).
 
     scene: Scene, built-in name or TOML path; overrides: base ``--set`` values applied first.
@@ -344,7 +348,13 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     whose file exists. lyapunov: also the largest exponent by ``nld.lyapunov.lyapunov_benettin``
     over ``lyapunov_revs`` (default revs) revolutions from the end of the section (rtol
     ``lyapunov_rtol``, default the lyapunov module's), skipped with a note in ``message`` when
-    nld.lyapunov is not available. progress: optional callable(done, total, record).
+    nld.lyapunov is not available. progress: a progress bar in points on stderr (None: when
+    stderr is a terminal, True, False; see nld.progress); a callable is taken as ``on_point``.
+    on_point: optional callable(done, total, record) called as each point finishes.
+
+    Ctrl-C (KeyboardInterrupt): the points in progress are abandoned (the worker processes are
+    ended), the finished ones are already in ``out``; :class:`nld.errors.Interrupted` is raised
+    with ``kept`` saying how many, and ``resume=True`` continues.
 
     Returns the table of all points (also the resumed ones), as :func:`load_sweep`.
     """
@@ -352,6 +362,8 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     from .provenance import git_hash
     from .scene import scene_to_dict
     from .poincare import _check_count, _load
+    from .progress import progress_bar, split_progress
+    bar_on, on_point = split_progress(progress, on_point)
     sc = _load(scene, overrides)
     raw = scene_to_dict(sc)
     if not isinstance(param, str) or _current_value(raw, param) is _MISSING:
@@ -402,31 +414,52 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     results = dict(done)
     counter = [len(done)]
 
-    def finished(rec):
-        results[(rec["direction"], rec["index"])] = rec
-        counter[0] += 1
-        if progress is not None:
-            progress(counter[0], total, rec)
-
     start = time.perf_counter()
-    if continuation:
-        _run_chain(spec, points, done, finished)
-    else:
-        todo = [pt for pt in points if (pt[0], pt[1]) not in done]
-        if todo:
-            if dask is not None:
-                wspec = copy.copy(spec)
-                wspec.out = None
-                run_dask(_run_batch, spec, wspec, (spec, todo[0][2]), todo, dask, batch_size,
-                         finished, spec.out)
+    with progress_bar(total=total, unit="point", desc=f"bifurcation {param}", enabled=bar_on,
+                      initial=len(done)) as bar:
+
+        def finished(rec):
+            results[(rec["direction"], rec["index"])] = rec
+            counter[0] += 1
+            bar.update(1)
+            if on_point is not None:
+                on_point(counter[0], total, rec)
+
+        try:
+            if continuation:
+                _run_chain(spec, points, done, finished)
             else:
-                run_local(_run_point, _run_batch, spec, (spec, todo[0][2]), todo, workers,
-                          batch_size, finished)
+                todo = [pt for pt in points if (pt[0], pt[1]) not in done]
+                if todo:
+                    if dask is not None:
+                        wspec = copy.copy(spec)
+                        wspec.out = None
+                        run_dask(_run_batch, spec, wspec, (spec, todo[0][2]), todo, dask,
+                                 batch_size, finished, spec.out)
+                    else:
+                        run_local(_run_point, _run_batch, spec, (spec, todo[0][2]), todo, workers,
+                                  batch_size, finished)
+        except KeyboardInterrupt as e:
+            raise interrupted_sweep(e, counter[0], total, outp, "points") from None
     frames = [results[(d, i)]["table"] for d, i, _ in points if (d, i) in results]
     df = _sorted(pd.concat(frames, ignore_index=True)) if frames else pd.DataFrame()
     prov["wall"] = time.perf_counter() - start
     df.attrs["provenance"] = prov
     return df
+
+
+def interrupted_sweep(exc, n_done, total, outp, what="points"):
+    """The :class:`nld.errors.Interrupted` of a sweep or map stopped by Ctrl-C after n_done of
+    total items."""
+    from .errors import Interrupted
+    if outp is not None:
+        # workers write each point as it finishes, before its batch comes back: count the files
+        n_done = max(n_done, len(list(Path(outp).glob("point-*.parquet"))))
+        kept = (f"{n_done} of {total} {what} finished and kept in {outp} (the ones in progress "
+                "were abandoned); run the same command with --resume (resume=True) to continue")
+    else:
+        kept = f"{n_done} of {total} {what} had finished; nothing written (no out directory)"
+    return Interrupted(f"interrupted after {n_done} of {total} {what}", kept=kept)
 
 
 def _prepare_out(outp: Path, prov: dict, resume: bool) -> None:
@@ -493,17 +526,40 @@ def run_local(run_one, run_batch, payload, warm, todo, workers, batch_size, fini
             finished(run_one(payload, *item))
         return
     batches = _batches(todo, workers, batch_size)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
-                             initializer=_warm_worker, initargs=warm) as ex:
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                             initializer=_warm_worker, initargs=warm)
+    futures = []
+    try:
         futures = [ex.submit(run_batch, payload, b) for b in batches]
+        for fut in as_completed(futures):
+            for rec in fut.result():
+                finished(rec)
+    except BaseException:
+        # Ctrl-C or an error: do not wait for the points in progress (they may take minutes)
+        for f in futures:
+            f.cancel()
+        _end_pool(ex)
+        raise
+    ex.shutdown(wait=True)
+
+
+def _end_pool(ex) -> None:
+    """Terminate the worker processes of a ProcessPoolExecutor and release it without waiting."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    for p in procs:
         try:
-            for fut in as_completed(futures):
-                for rec in fut.result():
-                    finished(rec)
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
+            p.terminate()
+        except Exception:         # noqa: BLE001 - already gone
+            pass
+    try:
+        ex.shutdown(wait=False, cancel_futures=True)
+    except Exception:             # noqa: BLE001
+        pass
+    for p in procs:
+        try:
+            p.join(timeout=2.0)
+        except Exception:         # noqa: BLE001
+            pass
 
 
 def _dask_client(dask):
@@ -535,11 +591,18 @@ def run_dask(run_batch, payload, worker_payload, warm, todo, dask, batch_size, f
         client.run(_warm_worker, *warm)      # every worker loads the kernel once
         futures = [client.submit(run_batch, worker_payload, b, pure=False)
                    for b in _batches(todo, n_workers, batch_size)]
-        for fut in dask_completed(futures):
-            for rec in fut.result():
-                if out is not None:
-                    _write_point(Path(out), rec)
-                finished(rec)
+        try:
+            for fut in dask_completed(futures):
+                for rec in fut.result():
+                    if out is not None:
+                        _write_point(Path(out), rec)
+                    finished(rec)
+        except BaseException:
+            try:
+                client.cancel(futures)
+            except Exception:     # noqa: BLE001
+                pass
+            raise
     finally:
         if own:
             client.close()
@@ -589,6 +652,28 @@ def add_arguments(subparsers):
     return sp
 
 
+def check_values(scene, overrides, keys, values, option: str) -> None:
+    """InputError naming ``option`` when the scene refuses one of ``values`` for ``keys`` (the
+    command line refuses a sweep whose points would fail the scene check; the API records such a
+    point as 'failed' and goes on)."""
+    from .errors import SceneError
+    from .poincare import _load
+    from .scene import apply_overrides, scene_from_dict, scene_to_dict
+    sc = _load(scene, overrides)
+    raw0 = scene_to_dict(sc)
+    for key in keys:
+        if _current_value(raw0, key) is _MISSING:
+            return              # the sweep itself names the bad key
+    for v in values:
+        raw = copy.deepcopy(raw0)
+        try:
+            for key in keys:
+                apply_overrides(raw, {key: v})
+            scene_from_dict(raw, sc.source)
+        except (SceneError, InputError) as e:
+            raise InputError(f"{option}: the value {v!r} is refused by the scene: {e}") from None
+
+
 def _values_arg(text: str):
     import argparse
     try:
@@ -601,17 +686,20 @@ def cli_bifurcation(args) -> int:
     """``nld bifurcation``: run the sweep, print one line per point and the output directory."""
     import sys
 
-    def progress(k, n, rec):
-        per = rec["table"]["period"].iloc[0]
-        print(f"[{k}/{n}] {args.param} = {rec['value']!s} ({rec['direction']}): {rec['status']}, "
-              f"period {per if per else '-'} ({rec['wall']:.3g} s)"
-              + (f": {rec['message']}" if rec["status"] != "ok" else ""), flush=True)
+    from .progress import write
 
+    def on_point(k, n, rec):
+        per = rec["table"]["period"].iloc[0]
+        write(f"[{k}/{n}] {args.param} = {rec['value']!s} ({rec['direction']}): {rec['status']}, "
+              f"period {per if per else '-'} ({rec['wall']:.3g} s)"
+              + (f": {rec['message']}" if rec["status"] != "ok" else ""))
+
+    check_values(args.scene, args.overrides, [args.param], args.values, "--values")
     df = sweep(args.scene, args.param, args.values, transient_revs=args.transient_revs,
                revs=args.revs, observables=args.observables, rtol=args.rtol,
                continuation=args.continuation, up_down=args.up_down, workers=args.workers,
                dask=args.dask, out=args.out, resume=args.resume, lyapunov=args.lyapunov,
-               overrides=args.overrides, progress=progress)
+               overrides=args.overrides, progress=args.progress, on_point=on_point)
     pts = df.drop_duplicates(["direction", "index"])
     n_failed = int((pts["status"] != "ok").sum())
     print(f"wrote {len(pts)} points to {args.out} (read with nld.bifurcation.load_sweep)")

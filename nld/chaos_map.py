@@ -280,7 +280,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
               zero_one: dict | None = None, period_tol: float = 1e-6,
               max_steps: int = 50_000_000, batch_size: int | None = None,
               progress=None, rtol_check: float | None = None,
-              lyapunov_method: str = "dopri5") -> pd.DataFrame:
+              lyapunov_method: str = "dopri5", on_point=None) -> pd.DataFrame:
     """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
 
     scene: Scene, built-in name or TOML path; base_overrides: ``--set`` values applied first.
@@ -306,8 +306,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     joint); zero_one: keyword arguments of :func:`nld.zero_one.zero_one_test` (default none:
     100 frequencies, seed 0). period_tol: a section repeating to this relative tolerance is a fixed
     point (K = 0).
-    workers, dask, batch_size, out, resume, progress: as :func:`nld.bifurcation.sweep`
-    (progress(done, total, record)).
+    workers, dask, batch_size, out, resume, progress, on_point: as :func:`nld.bifurcation.sweep`
+    (a bar in cells; on_point(done, total, record)); Ctrl-C keeps the finished cells in ``out``
+    and raises :class:`nld.errors.Interrupted`.
 
     Returns one row per cell (see the module docstring), also for resumed cells.
     """
@@ -315,6 +316,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     from .poincare import _check_count, _load
     from .provenance import git_hash
     from .scene import scene_to_dict
+    from .progress import progress_bar, split_progress
+    bar_on, on_point = split_progress(progress, on_point)
     keys_x, keys_y = _keys(param_x, "param_x"), _keys(param_y, "param_y")
     if set(keys_x) & set(keys_y):
         raise InputError(f"param_x and param_y share {sorted(set(keys_x) & set(keys_y))}")
@@ -365,6 +368,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     cells = [(iy * len(vx) + ix, ix, iy, vx[ix], vy[iy]) for iy in range(len(vy))
              for ix in range(len(vx))]
     done: dict[int, dict] = {}
+    outp = None
     if out is not None:
         outp = Path(out).expanduser()
         _check_extra(outp, prov)
@@ -383,25 +387,32 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     total = len(cells)
     counter = [len(done)]
 
-    def finished(rec):
-        results[rec["index"]] = rec
-        counter[0] += 1
-        if progress is not None:
-            progress(counter[0], total, rec)
-
     start = time.perf_counter()
     todo = [c for c in cells if c[0] not in done]
-    if todo:
-        if dask is not None:
-            wjob = copy.copy(job)
-            wjob.spec = copy.copy(job.spec)
-            wjob.spec.out = None          # this process writes the files
-            _bif.run_dask(_run_cell_batch, job, wjob, (job.spec, todo[0][3]), todo, dask,
-                          batch_size, finished, job.spec.out)
-        else:
-            # each worker loads the kernel once (the cells share one structure)
-            _bif.run_local(_run_cell, _run_cell_batch, job, (job.spec, todo[0][3]), todo, workers,
-                           batch_size, finished)
+    with progress_bar(total=total, unit="cell", desc=f"chaos map {sc.name}", enabled=bar_on,
+                      initial=len(done)) as bar:
+
+        def finished(rec):
+            results[rec["index"]] = rec
+            counter[0] += 1
+            bar.update(1)
+            if on_point is not None:
+                on_point(counter[0], total, rec)
+
+        try:
+            if todo:
+                if dask is not None:
+                    wjob = copy.copy(job)
+                    wjob.spec = copy.copy(job.spec)
+                    wjob.spec.out = None          # this process writes the files
+                    _bif.run_dask(_run_cell_batch, job, wjob, (job.spec, todo[0][3]), todo, dask,
+                                  batch_size, finished, job.spec.out)
+                else:
+                    # each worker loads the kernel once (the cells share one structure)
+                    _bif.run_local(_run_cell, _run_cell_batch, job, (job.spec, todo[0][3]), todo,
+                                   workers, batch_size, finished)
+        except KeyboardInterrupt as e:
+            raise _bif.interrupted_sweep(e, counter[0], total, outp, "cells") from None
     df = _summary([results[c[0]]["table"] for c in cells if c[0] in results])
     prov["wall"] = time.perf_counter() - start
     prov["cells_run"] = len(todo)
@@ -666,7 +677,9 @@ def cli_chaos_map(args) -> int:
     if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".pdf", ".svg"):
         raise InputError(f"--plot = {args.plot!r}: give a .png, .pdf or .svg file")
 
-    def progress(k, n, rec):
+    from .progress import write
+
+    def on_point(k, n, rec):
         t = rec["table"].iloc[0]
         if rec["status"] == "ok":
             res = (f"lambda = {t['per_revolution']:.3g} +- {t['uncertainty_per_revolution']:.2g} "
@@ -674,7 +687,10 @@ def cli_chaos_map(args) -> int:
         else:
             res = f"failed: {rec['message']}"
         x, y = rec["value"]
-        print(f"[{k}/{n}] {lx} = {x!s}, {ly} = {y!s}: {res} ({rec['wall']:.3g} s)", flush=True)
+        write(f"[{k}/{n}] {lx} = {x!s}, {ly} = {y!s}: {res} ({rec['wall']:.3g} s)")
+
+    _bif.check_values(args.scene, args.overrides, kx, args.x_values, "--x-values")
+    _bif.check_values(args.scene, args.overrides, ky, args.y_values, "--y-values")
 
     df = chaos_map(args.scene, kx if len(kx) > 1 else kx[0], args.x_values,
                    ky if len(ky) > 1 else ky[0], args.y_values,
@@ -685,7 +701,7 @@ def cli_chaos_map(args) -> int:
                    seed=args.seed,
                    observable=args.observable, workers=args.workers, dask=args.dask,
                    out=args.out, resume=args.resume, base_overrides=args.overrides,
-                   progress=progress)
+                   progress=args.progress, on_point=on_point)
     counts = df["verdict"].value_counts()
     print(f"wrote {len(df)} cells to {args.out} (read with nld.chaos_map.load_chaos_map): "
           + ", ".join(f"{counts.get(v, 0)} {v}" for v in ("chaotic", "regular", "uncertain", "failed")))

@@ -14,8 +14,16 @@
     nld --version
 
 Exit status: 0 success, 1 failed integration or solve (the message on stderr; what was computed
-is still written), 2 bad input (one line ``nld: error: <message>`` on stderr, no traceback).
+is still written), 2 bad input (one line ``nld: error: <message>`` on stderr, no traceback),
+130 interrupted by Ctrl-C (SIGINT; one line ``nld: interrupted: <what was kept>``: a simulate
+writes its partial table to --out, a sweep, chaos map or study keeps its finished points and
+resumes), 141 when the reader of stdout went away (``nld scenes | head -1``: no message, as
+``yes | head -1``; 128 + SIGPIPE, the status of a program killed by SIGPIPE).
 ``main(argv)`` returns the status instead of exiting, for tests.
+
+Every command takes ``--quiet`` (no progress bars) and ``--progress`` (progress bars on stderr
+even when it is not a terminal); by default long work shows a bar only on a terminal
+(``nld.progress``).
 """
 from __future__ import annotations
 
@@ -30,10 +38,11 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .errors import InputError, SceneError, SolveError
+from .errors import InputError, Interrupted, SceneError, SolveError
 
 PROG = "nld"
 STUDIES_ENV = "NLD_STUDIES_DIR"
+DEFAULT_STUDY_OUT = "nld-out"
 
 
 class _UsageError(Exception):
@@ -179,13 +188,26 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("study", help="run a study (studies/NAME.py) and print its PDF path",
                         description="Run studies/NAME.py (or the unique studies/NAME*.py) by calling its "
                                     f"main(quick, out_dir); the studies directory is ${STUDIES_ENV} "
-                                    "if set, else studies/ in the repository root.")
+                                    "if set, else studies/ in the repository root. The report and its "
+                                    f"data go to ./{DEFAULT_STUDY_OUT}/ unless --out names another "
+                                    "directory (--out reports/ for the committed full-mode reports; "
+                                    "a --quick run is refused there).")
     sp.add_argument("name", metavar="NAME", help="study name, or a unique prefix of one")
     sp.add_argument("--quick", action="store_true", help="short variant (fewer runs, shorter runs)")
-    sp.add_argument("--out-dir", metavar="DIR", type=Path, default=None,
-                    help="output directory (default: reports/ next to the studies directory)")
+    sp.add_argument("--out", "--out-dir", dest="out_dir", metavar="DIR", type=Path, default=None,
+                    help=f"output directory (default ./{DEFAULT_STUDY_OUT}/ in the current directory)")
     sp.set_defaults(func=cmd_study)
+    for sp in sub.choices.values():
+        _progress_args(sp)
     return p
+
+
+def _progress_args(sp) -> None:
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("--quiet", "-q", dest="progress", action="store_const", const=False, default=None,
+                   help="no progress bars")
+    g.add_argument("--progress", dest="progress", action="store_const", const=True,
+                   help="progress bars on stderr even when it is not a terminal")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -209,16 +231,13 @@ def cmd_show(args) -> int:
 
 
 def output_times(scene, *, revs=None, t_end=None, samples_per_rev: int):
-    """Output times (s) of a run, as :func:`nld.simulate.simulate` chooses them by default."""
+    """Output times (s) of a run, as :func:`nld.simulate.simulate` chooses them by default
+    (InputError naming --revs / --t-end when the table would be too large for memory)."""
     import numpy as np
-    from .simulate import crank_period
+    from .simulate import crank_period, output_rows
     if t_end is None:
-        t_end = (1.0 if revs is None else revs) * crank_period(scene)
-    try:
-        per = crank_period(scene)
-        n = max(2, int(round(t_end / per * samples_per_rev)) + 1)
-    except InputError:
-        n = 1001
+        t_end = (1.0 if revs is None else revs) * crank_period(scene, "--revs")
+    n = output_rows(scene, t_end, samples_per_rev, None, "--t-end" if revs is None else "--revs")
     return np.linspace(0.0, t_end, n)
 
 
@@ -235,6 +254,7 @@ def cmd_simulate(args) -> int:
     times = output_times(scene, revs=args.revs, t_end=args.t_end, samples_per_rev=args.samples_per_rev)
     t_end = float(times[-1])
     start = time.perf_counter()
+    interrupted = None
     if args.ideal:
         from .ideal import ideal_solution
         from .simulate import provenance
@@ -245,7 +265,13 @@ def cmd_simulate(args) -> int:
         prov = provenance(scene, None, integrator="ideal (nld.ideal.ideal_solution)", t_end=t_end, wall=wall)
     else:
         from .simulate import simulate
-        res = simulate(scene, t_eval=times, rtol=args.rtol, samples_per_rev=args.samples_per_rev)
+        try:
+            res = simulate(scene, t_eval=times, rtol=args.rtol, samples_per_rev=args.samples_per_rev,
+                           progress=args.progress)
+        except Interrupted as e:
+            if e.partial is None:
+                raise
+            res, interrupted = e.partial, e
         wall = time.perf_counter() - start
         table, status, message, stats, events = res.table, res.status, res.message, res.stats, res.events
         prov = dict(res.provenance)
@@ -253,6 +279,14 @@ def cmd_simulate(args) -> int:
                     stats=dict(stats))
     prov.update(kind="ideal" if args.ideal else "simulate", samples_per_rev=args.samples_per_rev,
                 revs=args.revs if args.t_end is None else None, command=args.command_line)
+    if interrupted is not None:
+        if out is not None:
+            path = save_table(table, out, prov)
+            kept = f"wrote the partial table ({interrupted.kept}) to {path}, marked partial in its provenance"
+        else:
+            kept = f"nothing written (no --out); {interrupted.kept} computed"
+        _interrupted(f"simulate stopped at t = {res.t_reached:.6g} s of {t_end:.6g} s: {kept}")
+        return 130
     if out is not None:
         path = save_table(table, out, prov)
         print(f"wrote {len(table)} rows x {table.shape[1]} columns to {path} "
@@ -263,6 +297,10 @@ def cmd_simulate(args) -> int:
         _err(f"integration failed: {message}")
         return 1
     return 0
+
+
+def _interrupted(what: str) -> None:
+    print(f"{PROG}: interrupted: {_one_line(what)}", file=sys.stderr, flush=True)
 
 
 def _print_summary(table, message, stats, events, wall, integration_wall) -> None:
@@ -337,7 +375,8 @@ def cmd_lyapunov(args) -> int:
     system = SceneSystem(args.scene, args.overrides, method=args.method)
     T = system.period
     res = lyapunov_benettin(system, transient=args.transient * T, total=args.revs * T, d0=args.d0,
-                            rtol=args.rtol, seed=args.seed)
+                            rtol=args.rtol, seed=args.seed,
+                            **_progress_kw(lyapunov_benettin, args.progress))
     out = {"scene": system.scene.name, "exponent_per_s": res.exponent,
            "uncertainty_per_s": res.uncertainty, "exponent_per_revolution": res.per_revolution,
            "uncertainty_per_revolution": res.uncertainty_per_revolution, "method": res.method,
@@ -345,7 +384,8 @@ def cmd_lyapunov(args) -> int:
            "seed": args.seed, "integrator": args.method}
     if args.spectrum > 0:
         sp = lyapunov_spectrum(system, args.spectrum, transient=args.transient * T,
-                               total=args.revs * T, rtol=args.rtol)
+                               total=args.revs * T, rtol=args.rtol,
+                               **_progress_kw(lyapunov_spectrum, args.progress))
         out["spectrum_per_s"] = [float(x) for x in sp.exponents]
         out["spectrum_uncertainty_per_s"] = [float(x) for x in sp.uncertainty]
     prov = provenance(system.scene, system.kernel, rtol=args.rtol)
@@ -358,6 +398,19 @@ def cmd_lyapunov(args) -> int:
             print("spectrum (1/s): " + ", ".join(f"{x:.4g} +- {u:.2g}" for x, u in
                                                 zip(out["spectrum_per_s"], out["spectrum_uncertainty_per_s"])))
     return 0
+
+
+def _progress_kw(func, progress) -> dict:
+    """``{"progress": progress}`` when ``func`` takes a ``progress`` argument (the Lyapunov
+    estimators gain one in issue 13; until then the command runs without a bar), else {}."""
+    import inspect
+    try:
+        params = inspect.signature(func).parameters
+    except (TypeError, ValueError):
+        return {}
+    if "progress" in params or any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return {"progress": progress}
+    return {}
 
 
 def find_study(name: str, d: Path | None = None) -> Path:
@@ -399,25 +452,57 @@ def _import_study(path: Path):
     return module
 
 
+def committed_reports_dir(d: Path | None = None) -> Path:
+    """reports/ next to the studies directory: where the committed full-mode reports live."""
+    d = studies_dir() if d is None else d
+    return d.resolve().parent / "reports"
+
+
 def cmd_study(args) -> int:
+    from . import progress
     d = studies_dir()
     path = find_study(args.name, d)
+    out_dir = Path(args.out_dir if args.out_dir is not None else DEFAULT_STUDY_OUT).expanduser()
+    if args.quick and _same_dir(out_dir, committed_reports_dir(d)):
+        raise InputError(f"--out = {str(args.out_dir)!r}: a --quick run must not overwrite the committed "
+                         f"full-mode reports in {committed_reports_dir(d)}; use another directory "
+                         f"(default ./{DEFAULT_STUDY_OUT}/)")
     module = _import_study(path)
     run = getattr(module, "main", None)
     if not callable(run):
         raise InputError(f"study {path} has no function main(quick: bool, out_dir: Path) -> Path")
-    out_dir = args.out_dir if args.out_dir is not None else d.resolve().parent / "reports"
-    out_dir = Path(out_dir).expanduser()
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"--out-dir {str(out_dir)!r}: cannot create it ({e.strerror or e})") from None
+        raise InputError(f"--out {str(out_dir)!r}: cannot create it ({e.strerror or e})") from None
     start = time.perf_counter()
-    pdf = run(quick=bool(args.quick), out_dir=out_dir)
+    progress.reset_stage()
+    if progress.progress_enabled():
+        progress.write(f"study {path.stem}: {'quick' if args.quick else 'full'} mode, writing to "
+                       f"{out_dir}", file=sys.stderr)
+    try:
+        pdf = run(quick=bool(args.quick), out_dir=out_dir)
+    except KeyboardInterrupt as e:
+        stage = progress.last_stage()
+        where = f" during '{stage}'" if stage else ""
+        keeps = getattr(module, "INTERRUPT_KEEPS", None) or (
+            "nothing kept: the report and its data are written only at the end (no partial PDF); "
+            "run the study again")
+        inner = f" ({e.kept})" if isinstance(e, Interrupted) and e.kept and getattr(module, "INTERRUPT_KEEPS", None) else ""
+        raise Interrupted(f"study {path.stem} interrupted",
+                          kept=f"study {path.stem} stopped after {time.perf_counter() - start:.3g} s"
+                               f"{where}: {keeps}{inner}") from None
     wall = time.perf_counter() - start
     print(pdf)
     print(f"study {path.stem} done in {wall:.3g} s", file=sys.stderr)
     return 0
+
+
+def _same_dir(a: Path, b: Path) -> bool:
+    try:
+        return a.expanduser().resolve() == b.expanduser().resolve()
+    except OSError:
+        return False
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -426,14 +511,21 @@ def cmd_study(args) -> int:
 
 def main(argv=None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    from . import interrupt, progress
     argv = list(sys.argv[1:] if argv is None else argv)
+    interrupt.install()
     try:
         try:
-            args = build_parser().parse_args(argv)
+            args = build_parser().parse_args(_values_with_minus(argv))
         except SystemExit as e:          # --help, --version
             return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
         args.command_line = shlex.join([PROG] + [str(a) for a in argv])
-        return int(args.func(args))
+        progress.set_default(getattr(args, "progress", None))
+        try:
+            return int(args.func(args))
+        finally:
+            progress.set_default(None)
+            sys.stdout.flush()
     except _UsageError as e:
         _err(e)
         return 2
@@ -443,15 +535,53 @@ def main(argv=None) -> int:
     except SolveError as e:
         _err(e)
         return 1
-    except KeyboardInterrupt:
-        _err("interrupted")
+    except Interrupted as e:
+        _interrupted(e.kept or str(e) or "nothing kept")
         return 130
-    except BrokenPipeError:               # e.g. `nld show slider_crank | head`
+    except KeyboardInterrupt:
+        _interrupted("nothing kept (the command had not finished a result yet)")
+        return 130
+    except BrokenPipeError:               # e.g. `nld scenes | head -1`
+        _quiet_stdout()
+        return 141
+    except MemoryError:
+        _err("out of memory: the run is too large for this machine (fewer revolutions or samples)")
+        return 2
+
+
+def _quiet_stdout() -> None:
+    """After EPIPE: point stdout at /dev/null so the interpreter's final flush stays silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
         try:
             sys.stdout = open(os.devnull, "w")
         except OSError:
             pass
-        return 0
+
+
+_NEG_VALUE_OPTS = ("--values", "--x-values", "--y-values", "--angle", "--set")
+
+
+def _values_with_minus(argv: list[str]) -> list[str]:
+    """``--values -1:-5:2`` -> ``--values=-1:-5:2``: argparse takes a value starting with '-'
+    for an option unless it looks like a plain negative number."""
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        if a == "--":
+            out.extend(argv[i:])
+            break
+        if a in _NEG_VALUE_OPTS and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and len(argv[i + 1]) > 1 and (argv[i + 1][1].isdigit() or argv[i + 1][1] == "."):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
 
 
 if __name__ == "__main__":

@@ -21,3 +21,21 @@ class InputError(ValueError):
 
 class SolveError(RuntimeError):
     """An integration that could not meet its tolerance; the message says where and why."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) during a long computation, raised after it stopped cleanly between two
+    chunks of integration. ``partial`` holds what was computed (e.g. the
+    :class:`nld.simulate.SimulationResult` up to the interruption, ``status`` INTERRUPTED) or None;
+    ``kept`` says it in words. A subclass of KeyboardInterrupt, so code that does not know it
+    stops as on any Ctrl-C."""
+
+    def __init__(self, message: str = "interrupted", partial=None, kept: str = ""):
+        super().__init__(message)
+        self.partial = partial
+        self.kept = kept
+
+
+class InputTypeError(InputError, TypeError):
+    """An argument of the wrong type (``revs='abc'``, ``scene=None``): both an InputError (a
+    ValueError) and a TypeError, so either ``except`` catches it."""

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from .errors import InputError, Interrupted
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
@@ -141,7 +141,7 @@ def _system_observables(system):
 
 def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observables=None,
                  overrides=None, rtol: float = 1e-8, y0=None, z0=None, kernel=None,
-                 max_steps: int = 50_000_000) -> Section:
+                 max_steps: int = 50_000_000, progress: bool | None = None) -> Section:
     """Stroboscopic Poincaré map: observables at t = k T, k = transient_revs .. transient_revs+revs-1.
 
     scene: Scene, built-in name or TOML path (``overrides`` as ``nld --set``) of a mechanism with
@@ -159,6 +159,9 @@ def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observabl
     growing to the clearance itself within a few revolutions (only the statistics of a chaotic
     section are meaningful); the period-1 four-bar at 10 rad/s 1e-5 of the clearance at
     rtol 1e-8, 1e-6 at rtol 1e-10.
+
+    progress: a bar in crank revolutions (see ``nld.simulate``). Ctrl-C raises
+    :class:`nld.errors.Interrupted` whose ``partial`` is the Section of the points reached.
     """
     transient_revs = _check_count("transient_revs", transient_revs, 0)
     revs = _check_count("revs", revs, 1)
@@ -180,8 +183,14 @@ def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observabl
     t_eval = k * T
     t_end = float(t_eval[-1]) if t_eval[-1] > 0 else T * 1e-9   # a one-point section at t = 0
     start = time.perf_counter()
-    res = simulate(sc, t_eval=t_eval, t_end=t_end, land=True, rtol=rtol, y0=y0, z0=z0,
-                   kernel=kern, max_steps=max_steps)
+    interrupted = None
+    try:
+        res = simulate(sc, t_eval=t_eval, t_end=t_end, land=True, rtol=rtol, y0=y0, z0=z0,
+                       kernel=kern, max_steps=max_steps, progress=progress)
+    except Interrupted as e:
+        if e.partial is None:
+            raise
+        res, interrupted = e.partial, e
     n = len(res.table)
     table = pd.DataFrame({"rev": k[:n].astype(np.int64), "t": res.table["t"].to_numpy()})
     for o in obs:
@@ -192,9 +201,14 @@ def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observabl
                 observables=obs, rtol=rtol, status=res.status, message=res.message,
                 wall=time.perf_counter() - start, continued=y0 is not None,
                 overrides=dict(overrides) if isinstance(overrides, dict) else list(overrides or []))
-    return Section(table, obs, np.asarray(res.y_final, float).copy(),
-                   np.asarray(res.z_final, float).copy(), float(res.t_reached), int(res.status),
-                   res.message, T, prov)
+    sec = Section(table, obs, np.asarray(res.y_final, float).copy(),
+                  np.asarray(res.z_final, float).copy(), float(res.t_reached), int(res.status),
+                  res.message, T, prov)
+    if interrupted is not None:
+        n_sec = int((k[:n] >= transient_revs).sum())
+        raise Interrupted(res.message, partial=sec,
+                          kept=f"{n_sec} of {revs} section points (t = 0 .. {res.t_reached:.6g} s)")
+    return sec
 
 
 def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0, max_steps):
@@ -320,7 +334,8 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
                        t_end: float | None = None, observables=None, overrides=None,
                        rtol: float = 1e-8, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
                        dt: float | None = None, y0=None, z0=None, refine: bool = True,
-                       kernel=None, max_steps: int = 50_000_000) -> Section:
+                       kernel=None, max_steps: int = 50_000_000,
+                       progress: bool | None = None) -> Section:
     """Poincaré section at the crossings of ``observable`` through ``level`` in ``direction``.
 
     scene: Scene / name / TOML path (+ ``overrides``), or a ContinuousSystem (observables: its
@@ -400,10 +415,18 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     atol = system.tolerance(rtol)
     hmax = float(system.hmax)
     start = time.perf_counter()
-    out = system.solve(0.0, y, grid, False, system.p, z.copy(), float(rtol), atol, 0.0, hmax,
-                       int(max_steps), int(system.n_events), 1000)
+    from .interrupt import deferred
+    from .simulate import INTERRUPTED, integrate_chunked, interrupted_message
+    out = integrate_chunked(system.solve, 0.0, y, grid, False, system.p, z.copy(), float(rtol),
+                            atol, hmax, int(max_steps), int(system.n_events), 1000,
+                            period if period else math.inf, progress=progress, period=period,
+                            desc=f"poincare {getattr(system, 'name', '')}".strip())
     status, t_reached, Y, n_out, st, Z = out[0], out[1], out[2], int(out[3]), out[4], out[9]
-    msg = status_message(status, t_reached, st)
+    interrupted = bool(out[-1])
+    if status == INTERRUPTED:
+        msg = interrupted_message(t_reached, 0.0, t_end, n_out, len(grid))
+    else:
+        msg = status_message(status, t_reached, st)
     rows = flow.observe_rows(grid, Y, Z, n_out)
     gi = flow.columns.index(observable)
     oi = [flow.columns.index(o) for o in obs]
@@ -421,50 +444,56 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
 
     points, times = [], []
     rhs = system.rhs
-    for i in idx:
-        up = branch[i + 1] > branch[i]
-        if direction == 1 and not up or direction == -1 and up:
-            continue
-        off = sub_level(i)
-        t0, t1 = grid[i], grid[i + 1]
-        g0 = g[i] - off
-        if g0 == 0.0:
-            tc, yc, zc = t0, Y[i].copy(), Z[i].copy()
-        elif refine:
-            cache = {}
-
-            def G(t, i=i, off=off, cache=cache):
-                yt, zt = _land(system, Y[i], Z[i], grid[i], t, rtol, atol, hmax, max_steps)
-                cache[t] = (yt, zt)
-                return flow.observe_one(t, yt, zt)[gi] - level - off
-            try:
-                tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
-            except (ValueError, RuntimeError):      # a failed re-integration
+    with deferred() as sig:
+        for i in idx:
+            if sig.requested:        # a Ctrl-C while refining: keep the crossings found so far
+                interrupted = sig.handled = True
+                break
+            up = branch[i + 1] > branch[i]
+            if direction == 1 and not up or direction == -1 and up:
                 continue
-            yc, zc = cache[tc] if tc in cache else _land(system, Y[i], Z[i], t0, tc, rtol, atol,
-                                                       hmax, max_steps)
-        else:
-            f0, f1 = np.empty(system.n), np.empty(system.n)
-            rhs(t0, Y[i], system.p, Z[i].copy(), f0)
-            rhs(t1, Y[i + 1], system.p, Z[i + 1].copy(), f1)
-            h = t1 - t0
+            off = sub_level(i)
+            t0, t1 = grid[i], grid[i + 1]
+            g0 = g[i] - off
+            if g0 == 0.0:
+                tc, yc, zc = t0, Y[i].copy(), Z[i].copy()
+            elif refine and not interrupted:     # interrupted: the cheap Hermite location
+                cache = {}
 
-            def herm(t, i=i, f0=f0, f1=f1, h=h):
-                s = (t - grid[i]) / h
-                h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
-                h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-                return h00 * Y[i] + h10 * h * f0 + h01 * Y[i + 1] + h11 * h * f1
+                def G(t, i=i, off=off, cache=cache):
+                    yt, zt = _land(system, Y[i], Z[i], grid[i], t, rtol, atol, hmax, max_steps)
+                    cache[t] = (yt, zt)
+                    return flow.observe_one(t, yt, zt)[gi] - level - off
+                try:
+                    tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+                except (ValueError, RuntimeError):      # a failed re-integration
+                    continue
+                yc, zc = cache[tc] if tc in cache else _land(system, Y[i], Z[i], t0, tc, rtol, atol,
+                                                           hmax, max_steps)
+            else:
+                f0, f1 = np.empty(system.n), np.empty(system.n)
+                rhs(t0, Y[i], system.p, Z[i].copy(), f0)
+                rhs(t1, Y[i + 1], system.p, Z[i + 1].copy(), f1)
+                h = t1 - t0
 
-            def G(t, i=i, off=off, herm=herm):
-                return flow.observe_one(t, herm(t), Z[i])[gi] - level - off
-            try:
-                tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
-            except ValueError:      # the Hermite interpolant does not change sign: midpoint guess
-                continue
-            yc, zc = herm(tc), Z[i].copy()
-        row = flow.observe_one(tc, yc, zc)
-        times.append(tc)
-        points.append(row[oi])
+                def herm(t, i=i, f0=f0, f1=f1, h=h):
+                    s = (t - grid[i]) / h
+                    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+                    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+                    return h00 * Y[i] + h10 * h * f0 + h01 * Y[i + 1] + h11 * h * f1
+
+                def G(t, i=i, off=off, herm=herm):
+                    return flow.observe_one(t, herm(t), Z[i])[gi] - level - off
+                try:
+                    tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+                except ValueError:      # the Hermite interpolant does not change sign: midpoint guess
+                    continue
+                yc, zc = herm(tc), Z[i].copy()
+            row = flow.observe_one(tc, yc, zc)
+            times.append(tc)
+            points.append(row[oi])
+        if sig.requested:
+            interrupted = sig.handled = True
     table = pd.DataFrame({"crossing": np.arange(len(times), dtype=np.int64),
                           "t": np.array(times, dtype=float)})
     P = np.array(points, dtype=float).reshape(len(times), len(oi))
@@ -478,7 +507,12 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
                 modulo=modulo, t_transient=t_transient, t_end=t_end, grid_step=dt, refine=refine,
                 rtol=rtol, observables=obs, status=int(status), message=msg,
                 wall=time.perf_counter() - start)
-    return Section(table, obs, y_final, z_final, float(t_reached), int(status), msg, None, base)
+    sec = Section(table, obs, y_final, z_final, float(t_reached), int(status), msg, None, base)
+    if interrupted:
+        base.update(partial=True)
+        raise Interrupted(msg, partial=sec, kept=f"{len(times)} section points (crossings up to "
+                                                 f"t = {t_reached:.6g} s)")
+    return sec
 
 
 def _scene_provenance(sc) -> dict:
@@ -617,14 +651,24 @@ def cli_poincare(args) -> int:
     """``nld poincare``: print (or write) the section points and the detected period."""
     from .io import check_table_path, save_table
     out = check_table_path(args.out) if args.out else None
-    if args.angle is None:
-        sec = stroboscopic(args.scene, transient_revs=args.transient_revs, revs=args.revs,
-                           observables=args.observables, overrides=args.overrides, rtol=args.rtol)
-    else:
-        sec = hyperplane_section(args.scene, observable="driver.angle", level=args.angle,
-                                 transient_revs=args.transient_revs, revs=args.revs,
-                                 observables=args.observables, overrides=args.overrides,
-                                 rtol=args.rtol)
+    try:
+        if args.angle is None:
+            sec = stroboscopic(args.scene, transient_revs=args.transient_revs, revs=args.revs,
+                               observables=args.observables, overrides=args.overrides,
+                               rtol=args.rtol, progress=args.progress)
+        else:
+            sec = hyperplane_section(args.scene, observable="driver.angle", level=args.angle,
+                                     transient_revs=args.transient_revs, revs=args.revs,
+                                     observables=args.observables, overrides=args.overrides,
+                                     rtol=args.rtol, progress=args.progress)
+    except Interrupted as e:
+        if e.partial is None or out is None:
+            raise
+        prov = dict(e.partial.provenance)
+        prov.update(partial=True, command=getattr(args, "command_line", None))
+        path = save_table(e.partial.table, out, prov)
+        raise Interrupted(str(e), kept=f"wrote the partial section ({e.kept}) to {path}, marked "
+                                       "partial in its provenance") from None
     from .scene import load_scene
     n = period_of(sec.points, tol=args.period_tol,
                   scale=section_scales(load_scene(args.scene, args.overrides), sec.observables))

@@ -271,6 +271,9 @@ def test_cli_chaos_map(monkeypatch, capsys, tmp_path):
     assert list(df.y) == [0.0, 0.1] and (df.status == "ok").all()
     assert cli.main(args + ["--resume"]) == 0 and "[" not in capsys.readouterr().out
     assert cli.main(args) == 2 and "already holds" in capsys.readouterr().err
-    # every cell failed: exit status 1
+    # a value the scene refuses is bad input before any cell runs (the API records a failed cell)
     assert cli.main(["chaos-map", SCENE, "--x", PX, "--x-values", "-1", "--y", PY, "--y-values", "0",
-                     "--revs", "2", "--workers", "1", "--out", str(tmp_path / "bad")]) == 1
+                     "--revs", "2", "--workers", "1", "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err
+    assert "--x-values" in err and "-1" in err and "must be >= 0" in err
+    assert not (tmp_path / "bad").exists()

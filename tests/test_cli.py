@@ -229,13 +229,34 @@ def studies(tmp_path, monkeypatch):
 
 
 def test_study_runs_dummy_by_alias(studies, tmp_path, capsys):
-    out_dir = tmp_path / "reports"
+    out_dir = tmp_path / "out"
     rc, out, err = run(capsys, "study", "zhang2013", "--quick", "--out-dir", str(out_dir))
     assert rc == 0, err
     pdf = Path(out.strip())
     assert pdf == out_dir / "zhang_quick.pdf" and pdf.read_bytes().startswith(b"%PDF")
-    rc, out, _ = run(capsys, "study", "zhang2013_excavator", "--out-dir", str(out_dir))
+    rc, out, _ = run(capsys, "study", "zhang2013_excavator", "--out", str(out_dir))
     assert rc == 0 and Path(out.strip()).name == "zhang.pdf"
+
+
+def test_study_writes_to_nld_out_by_default_and_quick_never_to_reports(studies, tmp_path, capsys,
+                                                                      monkeypatch):
+    """The default output is ./nld-out/ (ignored by git); the committed full-mode reports live in
+    reports/ beside the studies directory, and a --quick run is refused there."""
+    work = tmp_path / "cwd"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    rc, out, err = run(capsys, "study", "zhang2013", "--quick")
+    assert rc == 0, err
+    assert Path(out.strip()) == Path("nld-out") / "zhang_quick.pdf" and (work / "nld-out" / "zhang_quick.pdf").is_file()
+    reports = studies.parent / "reports"
+    reports.mkdir()
+    (reports / "zhang.pdf").write_bytes(b"%PDF-1.4 committed")
+    rc, _, err = run(capsys, "study", "zhang2013", "--quick", "--out", str(reports))
+    assert rc == 2
+    assert_one_line_error(err, "--out", "--quick", "committed full-mode reports")
+    assert sorted(p.name for p in reports.iterdir()) == ["zhang.pdf"]
+    rc, out, err = run(capsys, "study", "zhang2013", "--out", str(reports))      # full mode: allowed
+    assert rc == 0 and Path(out.strip()) == reports / "zhang.pdf"
 
 
 def test_study_unknown_or_ambiguous_exits_2(studies, capsys):
