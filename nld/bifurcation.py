@@ -318,6 +318,13 @@ def _current_value(raw: dict, key: str):
 _MISSING = object()
 
 
+def _check_rtol(rtol, name: str) -> float:
+    if isinstance(rtol, bool) or not isinstance(rtol, (int, float, np.integer, np.floating)) \
+            or not 1e-14 <= rtol < 1:
+        raise InputError(f"{name} = {rtol!r}: must be a number in [1e-14, 1)")
+    return float(rtol)
+
+
 def _plain_value(v):
     if isinstance(v, np.generic):
         v = v.item()
@@ -369,6 +376,11 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     if not isinstance(param, str) or _current_value(raw, param) is _MISSING:
         raise InputError(f"param = {param!r}: not a value of scene {sc.name!r} (a --set key such as "
                          "driver.speed or joints.B.clearance)")
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        from .errors import InputTypeError
+        raise InputTypeError(f"values = {values!r}: must be a list or array of values (parse_values "
+                             "reads 'START:STOP:NUM')")
+    _check_rtol(rtol, "rtol")
     values = [_plain_value(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
     if not values:
         raise InputError("values: give at least one")

@@ -266,6 +266,9 @@ def _sections(frames) -> pd.DataFrame:
 
 
 def _values(v, name):
+    if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
+        from .errors import InputTypeError
+        raise InputTypeError(f"{name} = {v!r}: must be a list or array of numbers")
     v = v.tolist() if isinstance(v, np.ndarray) else list(v)
     if not v:
         raise InputError(f"{name}: give at least one value")
@@ -328,6 +331,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
             raise InputError(f"parameter {k!r}: not a value of scene {sc.name!r} (a --set key such "
                              "as joints.B.clearance or joints.B.friction.mu)")
     vx, vy = _values(values_x, "values_x"), _values(values_y, "values_y")
+    _bif._check_rtol(rtol, "rtol")
+    if lyapunov_rtol is not None:
+        _bif._check_rtol(lyapunov_rtol, "lyapunov_rtol")
     transient_revs = _check_count("transient_revs", transient_revs, 0)
     revs = _check_count("revs", revs, 1)
     lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)

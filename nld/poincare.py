@@ -86,6 +86,8 @@ def _load(scene, overrides):
     """Scene from a Scene/name/path plus overrides (as nld.simulate does)."""
     from .scene import load_scene
     from .scene_model import Scene
+    from .simulate import check_scene_arg
+    check_scene_arg(scene)
     if isinstance(scene, Scene):
         if overrides:
             from .scene import apply_overrides, scene_from_dict, scene_to_dict

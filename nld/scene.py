@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import math
+import os
 import numbers
 import re
 import tomllib
@@ -149,9 +150,16 @@ def scene_path(name_or_path) -> Path:
         p = cm.__enter__()
         _KEEP_ALIVE.append(cm)
         return Path(p)
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        from .errors import InputTypeError
+        raise InputTypeError(f"scene = {name_or_path!r}: must be a built-in scene name or the path of "
+                             f"a .toml file (built-in scenes: {_builtin_list()})")
     p = Path(name_or_path).expanduser()
     if p.is_file():
         return p
+    if p.is_dir():
+        raise InputError(f"scene file {text}: is a directory, not a .toml file (built-in scenes: "
+                         f"{_builtin_list()})")
     if isinstance(name_or_path, Path) or p.suffix or "/" in text or "\\" in text:
         raise InputError(f"scene file not found: {text} (built-in scenes: {_builtin_list()})")
     raise InputError(f"unknown scene {text!r}: not a built-in scene ({_builtin_list()}) nor a .toml file")
@@ -240,10 +248,22 @@ def apply_overrides(raw: dict, overrides) -> dict:
         return raw
     if isinstance(overrides, str):
         overrides = [overrides]
+    from .errors import InputTypeError
     if isinstance(overrides, dict):
         items = list(overrides.items())
+    elif isinstance(overrides, (list, tuple)):
+        items = []
+        for o in overrides:
+            if isinstance(o, str):
+                items.append(parse_override(o))
+            elif isinstance(o, (list, tuple)) and len(o) == 2:
+                items.append(tuple(o))
+            else:
+                raise InputTypeError(f"overrides: item {o!r} is not a 'KEY=VALUE' string or a "
+                                     "(key, value) pair")
     else:
-        items = [parse_override(o) if isinstance(o, str) else tuple(o) for o in overrides]
+        raise InputTypeError(f"overrides = {overrides!r}: must be a dict key -> value or a list of "
+                             "'KEY=VALUE' strings")
     for key, value in items:
         _apply_one(raw, str(key), value)
     return raw
@@ -366,7 +386,29 @@ def _number(v, path: str, unit: str | None = None) -> float:
     return x
 
 
-def _num(tbl, key, path, unit=None, default=_MISSING, *, gt=None, ge=None, lt=None, le=None) -> float:
+# Physically absurd values that are valid numbers (a 1e300 kg crank) are refused with the plausible
+# range, not warned about: they overflow the equations (inf/NaN states) or make the integrator
+# crawl, and a run with them is never what was meant. The ranges span MEMS linkages to
+# heavy machinery (docs/scene-format.md, "Plausible ranges").
+PLAUSIBLE = {
+    "mass": (1e-9, 1e7),            # kg
+    "inertia": (1e-18, 1e9),        # kg m^2
+    "speed": (0.0, 1e5),            # |rad/s| (about 955 000 rpm)
+    "length": (0.0, 1e3),           # |m|: point coordinates, journal radii
+}
+
+
+def _plausible(x: float, v, p: str, what: str, unit: str | None) -> None:
+    lo, hi = PLAUSIBLE[what]
+    a = abs(x)
+    if a > hi or (x != 0.0 and a < lo):
+        rng = f"{lo:g} .. {hi:g}" if lo > 0 else f"|value| <= {hi:g}"
+        raise SceneError(p, v, f"outside the plausible range {rng}{_unit(unit)} of a mechanism "
+                               "(docs/scene-format.md, 'Plausible ranges')")
+
+
+def _num(tbl, key, path, unit=None, default=_MISSING, *, gt=None, ge=None, lt=None, le=None,
+         plausible: str | None = None) -> float:
     p = f"{path}.{key}"
     v = _get(tbl, key, p, default, hint=f"a number{_unit(unit)}")
     x = _number(v, p, unit)
@@ -378,6 +420,8 @@ def _num(tbl, key, path, unit=None, default=_MISSING, *, gt=None, ge=None, lt=No
         raise SceneError(p, v, f"must be < {lt:g}{_unit(unit)}")
     if le is not None and not x <= le:
         raise SceneError(p, v, f"must be <= {le:g}{_unit(unit)}")
+    if plausible is not None:
+        _plausible(x, v, p, plausible, unit)
     return x
 
 
@@ -450,6 +494,10 @@ def _points(v, path: str) -> dict[str, tuple[float, float]]:
     for name, xy in v.items():
         _item_name(name, f"{path}.{name}", "point")
         out[name] = _vec2(xy, f"{path}.{name}", "m")
+        if max(abs(c) for c in out[name]) > PLAUSIBLE["length"][1]:
+            raise SceneError(f"{path}.{name}", xy, f"outside the plausible range |x|, |y| <= "
+                             f"{PLAUSIBLE['length'][1]:g} (m) of a mechanism (docs/scene-format.md, "
+                             "'Plausible ranges')")
     return out
 
 
@@ -492,8 +540,8 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
         _check_keys(b, path, BODY_KEYS)
         bodies[bname] = Body(
             name=bname,
-            mass=_num(b, "mass", path, "kg", gt=0),
-            inertia=_num(b, "inertia", path, "kg m^2", gt=0),
+            mass=_num(b, "mass", path, "kg", gt=0, plausible="mass"),
+            inertia=_num(b, "inertia", path, "kg m^2", gt=0, plausible="inertia"),
             points=_points(b.get("points", {}), f"{path}.points"),
             angle0=_num(b, "angle0", path, "rad", 0.0),
         )
@@ -527,10 +575,14 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
         if jtype == "prismatic" and clearance > 0:
             raise SceneError(f"{path}.clearance", j["clearance"],
                              "must be 0 for a prismatic joint (clearance joints are revolute) (m)")
-        journal_radius = _num(j, "journal_radius", path, "m", 0.0, ge=0)
+        journal_radius = _num(j, "journal_radius", path, "m", 0.0, ge=0, plausible="length")
         if clearance > 0 and not journal_radius > 0:
             raise SceneError(f"{path}.journal_radius", j.get("journal_radius", _MISSING),
                              "must be > 0 when clearance > 0 (m)")
+        if clearance > 0 and not clearance < journal_radius:
+            raise SceneError(f"{path}.clearance", j["clearance"],
+                             f"must be < journal_radius = {journal_radius:g} m (the radial clearance "
+                             "is the bearing radius minus the journal radius, a fraction of it) (m)")
         axis = _vec2(j.get("axis", [1.0, 0.0]), f"{path}.axis")
         n = math.hypot(*axis)
         if not n > 0:
@@ -565,9 +617,9 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
         driver = Driver(
             joint=djoint,
             mode=_choice(dt, "mode", "driver", DRIVER_MODES, "speed"),
-            speed=_num(dt, "speed", "driver", "rad/s", 0.0),
+            speed=_num(dt, "speed", "driver", "rad/s", 0.0, plausible="speed"),
             angle0=_num(dt, "angle0", "driver", "rad", 0.0),
-            inertia=_num(dt, "inertia", "driver", "kg m^2", 0.0, ge=0),
+            inertia=_num(dt, "inertia", "driver", "kg m^2", 0.0, ge=0, plausible="inertia"),
             torque=_num(dt, "torque", "driver", "N m", 0.0),
             torque_slope=_num(dt, "torque_slope", "driver", "N m s/rad", 0.0),
         )

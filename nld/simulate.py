@@ -133,13 +133,29 @@ def output_rows(scene: Scene, span: float, samples_per_rev: int, ncols: int | No
     width = (ncols or 40) + 2 * 12
     if n * width * 8 > MAX_OUTPUT_BYTES:
         fit = MAX_OUTPUT_BYTES / (width * 8)
-        value = f"{revs:.6g} revolutions" if field == "revs" else f"{span:.6g} s ({revs:.6g} revolutions)"
+        value = (f"{revs:.6g} revolutions" if field.endswith("revs")
+                 else f"{span:.6g} s ({revs:.6g} revolutions)")
         raise InputError(f"{field} = {value} at {samples_per_rev} samples per revolution: "
                          f"{n:.3g} output rows would need {n * width * 8 / 2**30:.3g} GiB; at most "
                          f"{fit:.3g} rows ({fit / samples_per_rev:.3g} revolutions) fit the "
-                         f"{MAX_OUTPUT_BYTES / 2**30:g} GiB output limit: lower revs or "
-                         "samples_per_rev, or give t_eval")
+                         f"{MAX_OUTPUT_BYTES / 2**30:g} GiB output limit: "
+                         + ("lower --revs / --t-end or --samples-per-rev" if field.startswith("--")
+                            else "lower revs / t_end or samples_per_rev, or give t_eval"))
     return max(2, int(round(n)))
+
+
+def _state_arg(name: str, v, n: int) -> np.ndarray:
+    """A start state given by the caller: n finite numbers."""
+    try:
+        a = np.asarray(v, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputTypeError(f"{name} = {v!r}: must be {n} numbers") from None
+    if a.size != n:
+        raise InputError(f"{name}: {a.size} values given, the scene's state has {n} "
+                         f"(e.g. y_final / z_final of a run of the same scene)")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name}: must hold finite numbers")
+    return a
 
 
 def _check_t_eval(t_eval, t0: float, ncols: int) -> np.ndarray:
@@ -306,9 +322,10 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     t_eval = np.ascontiguousarray(t_eval, dtype=float)
     if y0 is None or z0 is None:
         y0_, z0_, q_init = initial_state(kern)
-        y0 = y0_ if y0 is None else np.asarray(y0, float)
-        z0 = z0_ if z0 is None else np.asarray(z0, float)
+        y0 = y0_ if y0 is None else _state_arg("y0", y0, kern.n_state)
+        z0 = z0_ if z0 is None else _state_arg("z0", z0, kern.n_z)
     else:
+        y0, z0 = _state_arg("y0", y0, kern.n_state), _state_arg("z0", z0, kern.n_z)
         q_init = None
     z = np.array(z0, dtype=float)
     ncols = len(kern.columns)
