@@ -475,7 +475,9 @@ def cmd_study(args) -> int:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise InputError(f"--out {str(out_dir)!r}: cannot create it ({e.strerror or e})") from None
+    from .report import study_started
     start = time.perf_counter()
+    study_started(start)
     progress.reset_stage()
     if progress.progress_enabled():
         progress.write(f"study {path.stem}: {'quick' if args.quick else 'full'} mode, writing to "
@@ -492,6 +494,8 @@ def cmd_study(args) -> int:
         raise Interrupted(f"study {path.stem} interrupted",
                           kept=f"study {path.stem} stopped after {time.perf_counter() - start:.3g} s"
                                f"{where}: {keeps}{inner}") from None
+    finally:
+        study_started(None)
     wall = time.perf_counter() - start
     print(pdf)
     print(f"study {path.stem} done in {wall:.3g} s", file=sys.stderr)

@@ -36,7 +36,48 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["PAGE_SIZE", "STYLE", "Report", "save_study_data", "source_date_epoch"]
+__all__ = ["PAGE_SIZE", "STYLE", "Report", "save_study_data", "source_date_epoch",
+           "estimator_text", "study_started"]
+
+_STUDY_START: list = [None]
+
+
+def study_started(t: float | None) -> None:
+    """The ``time.perf_counter()`` at which the running study started (``nld study`` sets it), so
+    that a Report's title page shows the study's whole wall time, not only the report's own."""
+    _STUDY_START[0] = t
+
+
+def estimator_text(settings: dict | None, method: str | None = None, period: float | None = None) -> str:
+    """One line naming the estimator of an exponent, its tolerance and averaging span, from the
+    result's ``settings`` dict (``nld.lyapunov`` results: method, rtol, transient, total,
+    renorm_interval, d0 ...), so the text follows the estimator that actually ran. Times are
+    given in crank revolutions too when ``period`` (s) is known; keys that are absent are left
+    out."""
+    st = dict(settings or {})
+    method = method or st.get("method") or st.get("estimator") or "?"
+    parts = [f"estimator {method}"]
+    if st.get("integrator") or st.get("system_method"):
+        parts.append(f"integrator {st.get('integrator') or st.get('system_method')}")
+    if st.get("rtol") is not None:
+        parts.append(f"rtol {float(st['rtol']):g}")
+
+    def span(v):
+        v = float(v)
+        if period:
+            return f"{v / period:.3g} rev ({v:.3g} s)"
+        return f"{v:.3g} s"
+    if st.get("transient") is not None:
+        parts.append(f"transient {span(st['transient'])}")
+    if st.get("total") is not None:
+        parts.append(f"averaged over {span(st['total'])}")
+    if st.get("renorm_interval") is not None:
+        parts.append(f"renormalised every {span(st['renorm_interval'])}")
+    if st.get("d0") is not None:
+        parts.append(f"d0 {float(st['d0']):g}")
+    if st.get("n_blocks") is not None:
+        parts.append(f"{st['n_blocks']} blocks for the uncertainty")
+    return "; ".join(parts)
 
 PAGE_SIZE = (11.69, 8.27)          # A4 landscape, inches
 # readable in print at A4: 9-10 pt text, visible lines; TrueType fonts so that the text is searchable
@@ -124,14 +165,18 @@ class Report:
     ``scene`` are shown when present), optional. settings: ``{label: value}`` shown on the title
     page (method, tolerances, revolutions, ...), optional. subtitle: a line under the title (e.g.
     "QUICK MODE"), shown in red when ``highlight_subtitle``. subject, keywords: PDF metadata.
-    wall_time (s): shown on the title page; by default the time from the construction of the
-    Report to the end of the ``with`` block. Set the attribute before the block ends to override.
+    wall_time (s): shown on the title page; by default the time from the start of the study
+    (:func:`study_started`, set by ``nld study``; else the construction of the Report) to the
+    end of the ``with`` block. Set the attribute before the block ends to override.
+    started: the ``time.perf_counter()`` at which the work reported on began (overrides
+    :func:`study_started`).
     """
 
     def __init__(self, path, title: str, scene=None, provenance: dict | None = None,
                  settings: dict | None = None, *, subtitle: str | None = None,
                  highlight_subtitle: bool = False, subject: str | None = None,
-                 keywords: list[str] | None = None, wall_time: float | None = None):
+                 keywords: list[str] | None = None, wall_time: float | None = None,
+                 started: float | None = None):
         from .scene import load_scene
         self.path = Path(path)
         self.title = str(title)
@@ -145,7 +190,9 @@ class Report:
         self.subject = subject
         self.keywords = list(keywords or [])
         self.wall_time = wall_time
-        self._start = time.perf_counter()
+        self._start = _STUDY_START[0] if _STUDY_START[0] is not None else time.perf_counter()
+        if started is not None:
+            self._start = float(started)
         self._pages: list = []          # Figures, in order (title pages are added at close)
         self._open = False
 
@@ -318,7 +365,7 @@ class Report:
             date = _dt.datetime.now(_dt.timezone.utc)
             rows.append(("Date", date.strftime("%Y-%m-%d %H:%M UTC")))
             wall = self.wall_time if self.wall_time is not None else time.perf_counter() - self._start
-            rows.append(("Wall time", f"{wall:.1f} s"))
+            rows.append(("Wall time", f"{wall:.1f} s (the whole run up to writing this PDF)"))
         return rows
 
     def _title_pages(self, epoch: int | None) -> list:
@@ -420,9 +467,13 @@ class Report:
         import matplotlib
         try:
             with matplotlib.rc_context(STYLE), PdfPages(tmp, metadata=self.metadata()) as pdf:
+                png = os.environ.get("NLD_REPORT_PNG_DIR")      # page images, for reviewing
                 for i, fig in enumerate(pages, start=1):
                     self._footer(fig, i, n)
                     pdf.savefig(fig)
+                    if png:
+                        Path(png).mkdir(parents=True, exist_ok=True)
+                        fig.savefig(Path(png) / f"{self.path.stem}-{i:02d}.png", dpi=60)
                     _release(fig)
             os.replace(tmp, self.path)
         finally:

@@ -20,6 +20,7 @@ sidecar) and ``zhang2013_excavator_summary.csv`` (the comparison table printed i
 """
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -53,6 +54,11 @@ ANALYSIS_QUICK = dict(rtol=1e-5, d0=1e-4, transient_revs=1, section_revs=2, lyap
 ANALYSIS_SMOKE = dict(rtol=1e-5, d0=1e-4, transient_revs=0, section_revs=1, lyap_revs=2,
                       clearances=[1e-5], frictions=[0.0])
 SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
+# a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
+# points the section cannot tell an attractor from a transient, whatever the exponent says
+MIN_SECTION_POINTS = 50
+# the study runs through the command line's interrupt handling: nothing partial is kept
+INTERRUPT_KEEPS = None
 # the paper's four cases as points of the two sweeps: (sweep, value)
 CASE_POINTS = {"f=0": ("friction", 0.0), "f=0.05": ("friction", 0.05),
                "r=0.01mm": ("clearance", 1e-5), "r=0.5mm": ("clearance", 5e-4)}
@@ -96,8 +102,10 @@ def run_cases(settings: dict, scene_name: str = SCENE):
     n = int(round(revs * settings["samples_per_rev"])) + 1
     times = np.linspace(0.0, revs * period, n)
     t_steady = settings["transient_revs"] * period
+    from nld.progress import stage
     tables, runs = {}, {}
-    for name, (_, _, overrides, _) in CASES.items():
+    for k, (name, (_, _, overrides, _)) in enumerate(CASES.items(), start=1):
+        stage("zhang2013", f"simulating case {name} ({k} of {len(CASES)}, {revs:g} revolutions)")
         t0 = time.perf_counter()
         # no shared kernel object: simulate() takes its tolerance scales from the case's own clearances
         res = simulate(scene_name, t_eval=times, rtol=settings["rtol"], overrides=overrides,
@@ -107,6 +115,7 @@ def run_cases(settings: dict, scene_name: str = SCENE):
         runs[name] = dict(overrides=list(overrides), status=res.status, success=res.success,
                           message=res.message, t_reached=res.t_reached, stats=dict(res.stats),
                           contact_events=int(len(res.events)), wall_s=wall)
+    stage("zhang2013", "ideal-joint twin")
     t0 = time.perf_counter()
     ideal = ideal_solution(base, times)
     runs["ideal"] = dict(overrides=[], status=0, success=True, wall_s=time.perf_counter() - t0,
@@ -159,12 +168,19 @@ def run_analysis(an: dict, scene_name: str = SCENE):
     from nld.lyapunov import lyapunov_benettin
     from nld.poincare import stroboscopic
     from nld.systems import SceneSystem
+    from nld.progress import stage
     frames, rows = [], []
+    n_all = len(an["clearances"]) + len(an["frictions"])
+    k = 0
     for sweep, values in (("clearance", an["clearances"]), ("friction", an["frictions"])):
         for i, v in enumerate(values):
+            k += 1
+            stage("zhang2013", f"chaos analysis: {sweep} = {v:g} ({k} of {n_all}: section and "
+                               "largest exponent)")
             ov = _sweep_overrides(sweep, v)
             t0 = time.perf_counter()
             lam = unc = per = uper = float("nan")
+            est = {}
             try:
                 sec = stroboscopic(scene_name, transient_revs=an["transient_revs"], revs=an["section_revs"],
                                    observables=SECTION_OBS, overrides=ov, rtol=an["rtol"])
@@ -177,6 +193,8 @@ def run_analysis(an: dict, scene_name: str = SCENE):
                                           rtol=an["rtol"], d0=an["d0"])
                     lam, unc = float(r.exponent), float(r.uncertainty)
                     per, uper = float(r.per_revolution), float(r.uncertainty_per_revolution)
+                    est = dict(getattr(r, "settings", {}) or {})
+                    est.setdefault("method", getattr(r, "method", None))
                 tab = sec.table.copy()
             except Exception as e:           # noqa: BLE001 - a failed point is data
                 status, msg = "failed", f"{type(e).__name__}: {e}"
@@ -188,11 +206,50 @@ def run_analysis(an: dict, scene_name: str = SCENE):
             frames.append(tab)
             rows.append({"sweep": sweep, "value": float(v), "lambda": lam, "lambda_uncertainty": unc,
                          "lambda_per_rev": per, "lambda_unc_per_rev": uper,
-                         "verdict": ("failed" if status != "ok" else "chaotic" if per - uper > 0 else
-                                     "regular" if per + uper < 0 else "uncertain"),
+                         "verdict": verdict(status, per, uper, int((tab["rev"] >= 0).sum())),
                          "section_points": int((tab["rev"] >= 0).sum()), "status": status, "message": msg,
+                         "estimator": est.get("method"),
+                         "estimator_settings": json.dumps(est, default=_json_default, sort_keys=True),
                          "wall_s": time.perf_counter() - t0})
     return pd.concat(frames, ignore_index=True), pd.DataFrame(rows)
+
+
+def verdict(status: str, per: float, uper: float, n_points: int) -> str:
+    """'chaotic' only for a positive exponent (lambda - uncertainty > 0) over a section of at least
+    MIN_SECTION_POINTS points; a positive exponent over a shorter section is 'λ1 > 0, short'."""
+    if status != "ok":
+        return "failed"
+    if per + uper < 0:
+        return "regular"
+    if per - uper > 0:
+        return "chaotic" if n_points >= MIN_SECTION_POINTS else "λ1 > 0, short"
+    return "uncertain"
+
+
+def estimator_line(pts: pd.DataFrame, period: float | None) -> str:
+    """The estimator, tolerance and averaging span of the exponents in ``pts``, from the results'
+    own settings (so the text follows the estimator that ran)."""
+    from nld.report import estimator_text
+    ok = pts[pts["status"] == "ok"]
+    if not len(ok):
+        return "no exponent computed"
+    texts = []
+    for _, r in ok.iterrows():
+        st = r.get("estimator_settings")
+        st = json.loads(st) if isinstance(st, str) and st else {}
+        st.pop("scales", None)
+        t = estimator_text(st, r.get("estimator"), period)
+        if t not in texts:
+            texts.append(t)
+    return "λ1: " + " | ".join(texts)
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
 
 
 def force_spectra(tables: dict, ts: float) -> dict:
@@ -246,27 +303,41 @@ def _fig_trajectory(rep, group, tables, ideal, ts):
                             "instant, which is bounded by the clearances.")
 
 
-def _fig_series(rep, group, tables, ideal, ts, col, scale, ylabel, what, fig_no):
+def _fig_series(rep, group, tables, ideal, ts, col, scale, ylabel, what, fig_no, *, diff=False):
+    """One panel per case of the group, sharing x and y. diff: plot the difference from the ideal
+    twin at the same instants (curves that overlap at full scale, e.g. the rod angle, whose
+    clearance effect is a fraction of a degree)."""
     title, names, _ = GROUPS[group]
     with rep.style():
-        fig, axes = rep.subplots(len(names), 1, sharex=True,
-                                 title=f"Paper Fig. {fig_no}: rod {what}, {title.split(' (')[0]}")
+        fig, axes = rep.subplots(len(names), 1, sharex=True, sharey=True,
+                                 title=f"Paper Fig. {fig_no}: rod {what}{' minus the ideal-joint twin' if diff else ''}, "
+                                       f"{title.split(' (')[0]}")
         ids = _steady(ideal, ts)
         for ax, name in zip(axes, names):
             s = _steady(tables[name], ts)
-            ax.plot(s["t"], s[col] * scale, color=COLORS[name], label=CASES[name][1])
-            ax.plot(ids["t"], ids[col] * scale, **IDEAL_STYLE)
+            if diff:
+                n = min(len(s), len(ids))
+                d = (s[col].to_numpy()[:n] - ids[col].to_numpy()[:n]) * scale
+                ax.plot(s["t"].to_numpy()[:n], d, color=COLORS[name], label=CASES[name][1])
+                ax.axhline(0.0, **IDEAL_STYLE)
+            else:
+                ax.plot(s["t"], s[col] * scale, color=COLORS[name], label=CASES[name][1])
+                ax.plot(ids["t"], ids[col] * scale, **IDEAL_STYLE)
             ax.set_ylabel(ylabel)
             ax.legend(loc="upper right")
         _time_axis(axes[-1])
-    rep.figure(fig, caption=f"Steady part of the runs ({title}); ideal-joint curve dashed, at the same "
-                            "output times.")
+    rep.figure(fig, caption=f"Steady part of the runs ({title}); both panels on the same y-range. "
+                            + ("The difference from the ideal-joint twin at the same instants (the "
+                               "curves themselves overlap within the line width: the clearance "
+                               "changes the rod angle by a fraction of a degree); the ideal joints "
+                               "are the dashed zero line." if diff else
+                               "Ideal-joint curve dashed, at the same output times."))
 
 
 def _fig_forces(rep, group, tables, ideal, ts):
     title, names, _ = GROUPS[group]
     with rep.style():
-        fig, axes = rep.subplots(3, len(names), sharex=True, squeeze=False,
+        fig, axes = rep.subplots(3, len(names), sharex=True, sharey="row", squeeze=False,
                                  title=f"Paper Fig. 8: contact forces and crank (load) torque, "
                                        f"{title.split(' (')[0]}")
         ids = _steady(ideal, ts)
@@ -275,21 +346,22 @@ def _fig_forces(rep, group, tables, ideal, ts):
             for i, (jn, lab) in enumerate((("A", "A (crank-rod)"), ("B", "B (rod-cutter head)"))):
                 ax = axes[i, j]
                 ax.plot(s["t"], s[f"{jn}.Fn"] * 1e-3, color=COLORS[name], lw=0.8,
-                        label=f"normal contact force F_n at {lab}")
+                        label=CASES[name][1])
                 ax.plot(ids["t"], np.hypot(ids[f"{jn}.Fx"], ids[f"{jn}.Fy"]) * 1e-3,
-                        color="black", ls="--", lw=0.9, label="ideal-joint reaction |F|")
-                ax.set_ylabel(f"force at {jn} [kN]")
+                        **{**IDEAL_STYLE, "label": "ideal joints (reaction |F|)"})
+                ax.set_ylabel(f"F_n at {lab} [kN]")
                 ax.legend(loc="upper right")
                 if i == 0:
                     ax.set_title(CASES[name][1])
             ax = axes[2, j]
-            ax.plot(s["t"], s["driver.torque"], color=COLORS[name], lw=0.8, label="crank driving torque T")
+            ax.plot(s["t"], s["driver.torque"], color=COLORS[name], lw=0.8, label=CASES[name][1])
             ax.plot(ids["t"], ids["driver.torque"], **IDEAL_STYLE)
             ax.set_ylabel("crank torque T [N m]")
             ax.legend(loc="upper right")
             _time_axis(ax)
-    rep.figure(fig, caption="Steady part. Rows: normal contact force at A, at B (the ideal-joint "
-                            "reaction magnitude dashed), and the torque the speed-controlled driver "
+    rep.figure(fig, caption="Steady part; the panels of a row share their y-range. Rows: normal contact "
+                            "force at A, at B (the ideal-joint reaction magnitude dashed), and the "
+                            "torque the speed-controlled driver "
                             "applies to the crank (the paper's load torque). Peaks are those of the "
                             "sampled output; impacts last tens of microseconds, so the true peaks "
                             "between samples can be higher.")
@@ -298,7 +370,7 @@ def _fig_forces(rep, group, tables, ideal, ts):
 def _fig_phase(rep, tables, ideal, ts):
     names = list(CASES)
     with rep.style():
-        fig, axes = rep.subplots(2, len(names), squeeze=False,
+        fig, axes = rep.subplots(2, len(names), squeeze=False, sharex="row", sharey="row",
                                  title="Paper Fig. 9: rod angular velocity against angular acceleration")
         ids = _steady(ideal, ts)
         ia, iw = ids["rod.alpha"].to_numpy(), ids["rod.omega"].to_numpy()
@@ -307,8 +379,8 @@ def _fig_phase(rep, tables, ideal, ts):
             for i, scale in ((0, 1e-3), (1, 1.0)):
                 ax = axes[i, j]
                 ax.plot(s["rod.alpha"] * scale, s["rod.omega"], color=COLORS[name], ls="", marker=".",
-                        ms=1.6, alpha=0.6, label="clearance joints (samples)")
-                ax.plot(ia * scale, iw, color="black", ls="--", lw=1.0, label="ideal joints")
+                        ms=1.6, alpha=0.6, label=CASES[name][1])
+                ax.plot(ia * scale, iw, **IDEAL_STYLE)
                 ax.set_ylabel("rod angular velocity [rad/s]")
                 if i == 0:
                     ax.set_xlabel("rod angular acceleration [10³ rad/s²]")
@@ -319,36 +391,55 @@ def _fig_phase(rep, tables, ideal, ts):
                     ax.set_ylim(2 * iw.min(), 2 * iw.max())
                     ax.set_title("zoom on the ideal-joint range", fontsize=8.5)
             axes[0, j].legend(loc="lower right", fontsize=7.5, markerscale=4)
-    rep.figure(fig, caption="Steady part. Top: full range (impacts give accelerations orders of "
+    rep.figure(fig, caption="Steady part; the panels of a row share their axes. Top: full range (impacts give accelerations orders of "
                             "magnitude above the ideal-joint values). Bottom: the same data, zoomed "
                             "to 3x the ideal acceleration range and 2x its velocity range.")
 
 
-def _fig_sections(rep, secs, pts):
-    from nld.plots import poincare_scatter
+def _fig_sections(rep, secs, pts, period):
     names = list(CASES)
     with rep.style():
-        fig, axes = rep.subplots(2, len(names), squeeze=False,
-                                 title="Poincaré sections (once per crank revolution): journal eccentricity at A and B")
+        fig, axes = rep.subplots(2, len(names), squeeze=False, sharex=True, sharey=True,
+                                 title="Poincaré sections (once per crank revolution): journal eccentricity "
+                                       "over clearance at A and B")
+        th = np.linspace(0, 2 * np.pi, 200)
+        lim = 1.15                       # e/c > 1 in contact (penetration): keep every point inside
+        for j in ("A", "B"):
+            for name in names:
+                sw, v = CASE_POINTS[name]
+                sel = secs[(secs["sweep"] == sw) & np.isclose(secs["value"], v) & (secs["rev"] >= 0)]
+                c = _case_clearance(name, j)
+                e = np.hypot(sel[f"{j}.ex"].to_numpy(), sel[f"{j}.ey"].to_numpy()) / c
+                if e.size and np.isfinite(e).any():
+                    lim = max(lim, 1.08 * float(np.nanmax(e)))
         for jn, (j, joint) in enumerate((("A", "A (crank-rod)"), ("B", "B (rod-cutter head)"))):
             for k, name in enumerate(names):
                 sw, v = CASE_POINTS[name]
                 sel = secs[(secs["sweep"] == sw) & np.isclose(secs["value"], v) & (secs["rev"] >= 0)]
                 ax = axes[jn, k]
-                poincare_scatter(sel, f"{j}.ex", f"{j}.ey", ax=ax, scale=1e6, unit="µm", s=14,
-                                 color=COLORS[name])
                 c = _case_clearance(name, j)
-                th = np.linspace(0, 2 * np.pi, 200)
-                ax.plot(c * 1e6 * np.cos(th), c * 1e6 * np.sin(th), color="0.6", lw=0.6, ls=":")
+                ax.scatter(sel[f"{j}.ex"] / c, sel[f"{j}.ey"] / c, s=14, color=COLORS[name],
+                           label=CASES[name][1])
+                ax.plot(np.cos(th), np.sin(th), color="0.6", lw=0.6, ls=":", label="clearance circle e = c")
+                ax.set_xlim(-lim, lim)
+                ax.set_ylim(-lim, lim)
+                ax.set_aspect("equal")
+                if jn == 1:
+                    ax.set_xlabel("e_x / c [−]")
+                if k == 0:
+                    ax.set_ylabel(f"joint {j}: e_y / c [−]")
                 p = pts[(pts["sweep"] == sw) & np.isclose(pts["value"], v)].iloc[0]
-                ax.set_title(f"{name}, joint {joint}\nλ1 = {p['lambda_per_rev']:.3g} ± "
-                             f"{p['lambda_unc_per_rev']:.2g} /rev", fontsize=8)
-    rep.figure(fig, caption="Journal centre relative to the bearing centre at t = kT after the transient "
-                            "(dotted: the clearance circle). The runs are short (the excavator with Coulomb "
-                            "friction costs seconds per revolution), so a section has only a few points: it "
-                            "shows where the journals sit once per revolution, not the shape of an "
-                            "attractor. λ1: largest Lyapunov exponent per crank revolution from the end of "
-                            "the section.")
+                ax.set_title(f"{name}, joint {joint}\n{int(p['section_points'])} points; λ1 = "
+                             f"{p['lambda_per_rev']:.3g} ± {p['lambda_unc_per_rev']:.2g} /rev ({p['verdict']})",
+                             fontsize=8)
+        axes[0, 0].legend(loc="lower left", fontsize=7)
+    rep.figure(fig, caption="Journal centre relative to the bearing centre at t = kT after the transient, divided "
+                            "by the clearance c of that joint and case (dotted: the clearance circle e = c; all "
+                            "panels on the same axes). The runs are short (the excavator with Coulomb friction "
+                            "costs seconds per revolution), so a section has only a few points: it shows where the "
+                            "journals sit once per revolution, not the shape of an attractor, and a section of "
+                            f"fewer than {MIN_SECTION_POINTS} points is not called chaotic whatever the exponent "
+                            "('λ1 > 0, short'). λ1 from the end of the section; " + estimator_line(pts, period) + ".")
 
 
 def _case_clearance(name, joint):
@@ -357,42 +448,54 @@ def _case_clearance(name, joint):
     return float(ov[key]) if key in ov else (0.07e-3 if joint == "A" else 0.03e-3)
 
 
-def _fig_bifurcation(rep, sweep, secs, pts, an):
-    from nld.plots import bifurcation_diagram
-    sel = secs[secs["sweep"] == sweep].copy()
-    sel["direction"] = "up"
+def _fig_bifurcation(rep, sweep, secs, pts, an, period):
+    sel = secs[(secs["sweep"] == sweep) & (secs["rev"] >= 0)].copy()
     p = pts[pts["sweep"] == sweep]
     clr = sweep == "clearance"
+    x_of = (lambda v: v * 1e3) if clr else (lambda v: v)
     with rep.style():
         fig, (a1, a2, a3) = rep.subplots(3, 1, sharex=True,
                                          title=("Bifurcation diagram in the clearance r1 = r2 (f = 0.01)" if clr else
                                                 "Bifurcation diagram in the friction coefficient f (r1 = 0.07, r2 = 0.03 mm)"))
         for ax, j in ((a1, "A"), (a2, "B")):
-            bifurcation_diagram(sel, f"{j}.ex", ax=ax, scale=1e6, unit="µm",
-                                param_scale=1e3 if clr else 1.0, param_unit="mm" if clr else "−", s=8,
-                                title="")
-            ax.set_xlabel("")
+            # eccentricity over the clearance of that point: comparable across clearances
+            c = sel["value"].to_numpy() if clr else np.full(len(sel), 0.07e-3 if j == "A" else 0.03e-3)
+            ax.scatter(x_of(sel["value"].to_numpy()), sel[f"{j}.ex"].to_numpy() / c, s=10, color="tab:blue",
+                       label="section points")
+            for yv in (-1.0, 1.0):
+                ax.axhline(yv, color="0.6", lw=0.6, ls=":")
+            ec = sel[f"{j}.ex"].to_numpy() / c
+            top = max(1.15, 1.08 * float(np.nanmax(np.abs(ec)))) if ec.size and np.isfinite(ec).any() else 1.15
+            ax.set_ylim(-top, top)
+            ax.set_ylabel(f"{j}.ex / c [−]")
+            ax.legend(loc="upper right", fontsize=7.5)
+        t = max(a1.get_ylim()[1], a2.get_ylim()[1])          # A and B on the same y-range
+        for ax in (a1, a2):
+            ax.set_ylim(-t, t)
         ok = p["status"] == "ok"
-        x = p["value"] * (1e3 if clr else 1.0)
+        x = x_of(p["value"])
         a3.errorbar(x[ok], p["lambda_per_rev"][ok], yerr=p["lambda_unc_per_rev"][ok], fmt="o-", ms=3.5,
                     lw=0.9, capsize=2, color="k", label="λ1 ± uncertainty")
         a3.axhline(0.0, color="tab:red", lw=0.8, ls="--")
         a3.set_ylabel("λ1 [1/revolution]")
         a3.set_xlabel("clearance r1 = r2 [mm]" if clr else "friction coefficient f at A and B [−]")
-        a3.legend(loc="best")
+        a3.legend(loc="upper right", fontsize=7.5)
         if clr:
             a3.set_xscale("log")
-    rep.figure(fig, caption=f"Section points of the eccentricities A.ex and B.ex ({an['section_revs']} "
-                            f"revolutions after {an['transient_revs']} transient) against the parameter, and "
-                            f"the largest exponent over {an['lyap_revs']} revolutions (rtol {an['rtol']:g}, "
-                            f"d0 = {an['d0']:g} in the scaled norm). Few revolutions: a coarse diagram.")
+    rep.figure(fig, caption=f"Section points of the eccentricities A.ex and B.ex divided by the clearance of "
+                            f"that point (±1: the journal touches the bearing; {an['section_revs']} revolutions "
+                            f"after {an['transient_revs']} transient) against the parameter, and the largest "
+                            f"exponent. " + estimator_line(p, period) + ". Few revolutions: a coarse diagram.")
 
 
 def _fig_spectra(rep, spectra):
     from nld.plots import spectrum_plot
     names = list(CASES)
+    top = [float(pk["order"].max()) for sp, pk in spectra.values() if pk is not None and len(pk)]
+    max_order = max([100.0] + [1.1 * o for o in top])         # every listed peak inside the axes
     with rep.style():
-        fig, axes = rep.subplots(2, len(names), squeeze=False, title="Spectra of the normal contact forces at A and B")
+        fig, axes = rep.subplots(2, len(names), squeeze=False, sharex=True, sharey="row",
+                                 title="Spectra of the normal contact forces at A and B")
         for k, name in enumerate(names):
             for jn, j in enumerate(("A", "B")):
                 ax = axes[jn, k]
@@ -400,23 +503,30 @@ def _fig_spectra(rep, spectra):
                 if sp is None:
                     ax.text(0.5, 0.5, "run too short", transform=ax.transAxes, ha="center")
                     continue
-                spectrum_plot(sp, ax=ax, peaks=pk, max_order=100, orders=[], title=f"{name}: {j}.Fn")
+                spectrum_plot(sp, ax=ax, peaks=pk, max_order=max_order, orders=[], title=f"{name}: {j}.Fn")
                 ax.set_ylabel(f"PSD of {j}.Fn [N²/Hz]")
-    rep.figure(fig, caption="Periodogram (Hann window) of the normal contact force over the plotted "
-                            "revolutions (top axis: crank orders; red: the three largest peaks). The load "
-                            "cycle puts power on the low crank orders; the impacts in the clearances add a "
-                            "broadband part up to hundreds of orders.")
+                ax.set_xlabel("frequency [Hz]" if jn == 1 else "")
+                if ax.get_legend() is not None:
+                    ax.get_legend().remove()
+        axes[0, 0].legend(["spectrum", "three largest peaks"], loc="upper right", fontsize=7.5)
+    rep.figure(fig, caption=f"Periodogram (Hann window) of the normal contact force over the plotted "
+                            f"revolutions (top axis: crank orders; red: the three largest peaks, also listed "
+                            f"in the text). Axes up to {max_order:.0f} crank orders, beyond the highest listed "
+                            "peak; the panels of a row share their y-range. The load cycle puts power on the "
+                            "low crank orders; the impacts in the clearances add a broadband part up to "
+                            "hundreds of orders.")
 
 
-def _analysis_text(pts, spectra, an, mode):
+def _analysis_text(pts, spectra, an, mode, period=None):
     def fmt(p):
         return f"{p['lambda_per_rev']:.3g} ± {p['lambda_unc_per_rev']:.2g}"
     lines = [
         f"Method: separate runs from the assembled ideal state at rtol {an['rtol']:g}: {an['transient_revs']} "
         f"transient revolution(s), a stroboscopic section of {an['section_revs']} point(s) of the journal "
         f"eccentricities at A and B (nld.poincare.stroboscopic), then the largest Lyapunov exponent "
-        f"(nld.lyapunov.lyapunov_benettin, two trajectories, d0 = {an['d0']:g} in the clearance-scaled "
-        f"norm) over {an['lyap_revs']} revolutions from the end of the section. Clearance sweep r1 = r2 in "
+        f"from the end of the section ({estimator_line(pts, period)}). A point is called chaotic only "
+        f"when λ1 - uncertainty > 0 over a section of at least {MIN_SECTION_POINTS} points; a positive "
+        f"exponent over a shorter section reads 'λ1 > 0, short'. Clearance sweep r1 = r2 in "
         f"{', '.join(f'{v * 1e3:g}' for v in an['clearances'])} mm at f = 0.01; friction sweep f in "
         f"{', '.join(f'{v:g}' for v in an['frictions'])} at r1 = 0.07, r2 = 0.03 mm. The paper's four cases "
         "are points of these sweeps. These runs are short because a revolution with the paper's Coulomb "
@@ -436,7 +546,9 @@ def _analysis_text(pts, spectra, an, mode):
         lines.append(f"- {sweep} sweep: λ1 per revolution " +
                      "; ".join(f"{r['value'] * sc:g}{unit}: {fmt(r)}" for _, r in p.iterrows()) +
                      f". {int((p['verdict'] == 'chaotic').sum())} of {len(p)} points chaotic, "
-                     f"{int((p['verdict'] == 'regular').sum())} regular; λ1 from {p['lambda_per_rev'].min():.3g} "
+                     f"{int((p['verdict'] == 'λ1 > 0, short').sum())} with a positive exponent over too "
+                     f"short a section, {int((p['verdict'] == 'regular').sum())} regular; λ1 from "
+                     f"{p['lambda_per_rev'].min():.3g} "
                      f"to {p['lambda_per_rev'].max():.3g}.")
     for name, (sw, v) in CASE_POINTS.items():
         p = pts[(pts["sweep"] == sw) & np.isclose(pts["value"], v)]
@@ -450,6 +562,11 @@ def _analysis_text(pts, spectra, an, mode):
         read = ("Reading: the journals rattle in both clearances and the motion is chaotic (an established "
                 "positive exponent) at every clearance and friction coefficient tried, so no onset of chaos "
                 "lies inside these sweeps. ")
+    elif len(ok) and ok["verdict"].isin(["chaotic", "λ1 > 0, short"]).all():
+        read = ("Reading: the journals rattle in both clearances and the exponent is positive at every "
+                "clearance and friction coefficient tried, but the sections have fewer than "
+                f"{MIN_SECTION_POINTS} points, so the motion is not called chaotic here: these runs cannot "
+                "tell a chaotic attractor from a long transient. ")
     else:
         nc = ok[ok["verdict"] != "chaotic"]
         read = ("Reading: points without an established positive exponent: " +
@@ -695,6 +812,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     from nld.report import Report, save_study_data
     from nld.scene import scene_to_dict
     from nld.simulate import crank_period
+    from nld.progress import stage
 
     start = time.perf_counter()
     settings = dict(SMOKE if smoke else QUICK if quick else FULL)
@@ -713,9 +831,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL)
     t_an = time.perf_counter()
     secs, pts = run_analysis(an)
+    stage("zhang2013", "force spectra")
     spectra = force_spectra(tables, ts)
     analysis_wall = time.perf_counter() - t_an
 
+    stage("zhang2013", "writing the data and the report")
     prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
             "scene": base.name, "scene_parameters": scene_to_dict(base),
             "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.simulate)",
@@ -761,7 +881,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     rep = Report(pdf_path, TITLE, scene=base, provenance=prov, settings=report_settings,
                  subtitle=("full mode" if mode == "full" else mode_label), highlight_subtitle=mode != "full",
                  subject="Repetition of Zhang et al. (2013), Figs 2-9, with nld",
-                 keywords=["clearance joint", "excavator", "Zhang 2013", mode])
+                 keywords=["clearance joint", "excavator", "Zhang 2013", mode], started=start)
     with rep:
         rep.text_page("What this report repeats", _text_intro(mode_label, settings, summary, runs, period))
         shown = summary.copy()
@@ -779,26 +899,29 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
             _fig_trajectory(rep, group, tables, ideal, ts)
             fno = GROUPS[group][2]
             _fig_series(rep, group, tables, ideal, ts, "rod.theta", 180 / math.pi,
-                        "rod angle θ2 [deg]", "angle", fno + 1)
+                        "θ2 - θ2,ideal [deg]", "angle", fno + 1, diff=True)
             _fig_series(rep, group, tables, ideal, ts, "rod.omega", 1.0,
                         "rod angular velocity [rad/s]", "angular velocity", fno + 2)
         for group in GROUPS:
             _fig_forces(rep, group, tables, ideal, ts)
         _fig_phase(rep, tables, ideal, ts)
-        rep.text_page("Chaos analysis: sections, exponents, bifurcation, spectra", _analysis_text(pts, spectra, an, mode))
-        shown_pts = pts.drop(columns=["lambda", "lambda_uncertainty", "message"] + (["wall_s"] if _sde() else []))
+        rep.text_page("Chaos analysis: sections, exponents, bifurcation, spectra",
+                      _analysis_text(pts, spectra, an, mode, period))
+        shown_pts = pts.drop(columns=["lambda", "lambda_uncertainty", "message", "estimator",
+                                      "estimator_settings"] + (["wall_s"] if _sde() else []))
         shown_pts = shown_pts.rename(columns={"lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
                                               "section_points": "points", "wall_s": "wall"})
         rep.table("Largest Lyapunov exponent per sweep point", shown_pts,
                   col_units={"λ1": "1/rev", "± unc": "1/rev", "wall": "s"},
                   notes=["value: r1 = r2 in m (clearance sweep, f = 0.01) or f at A and B (friction sweep, "
-                         "r1 = 0.07, r2 = 0.03 mm). λ1 per crank revolution, verdict chaotic if λ1 - unc > 0, "
-                         f"regular if λ1 + unc < 0. Stored in {STEM}_chaos.csv (lambda in 1/s as well); the "
+                         "r1 = 0.07, r2 = 0.03 mm). λ1 per crank revolution, verdict chaotic if λ1 - unc > 0 "
+                         f"and the section has at least {MIN_SECTION_POINTS} points ('λ1 > 0, short' below "
+                         f"that), regular if λ1 + unc < 0. {estimator_line(pts, period)}. Stored in {STEM}_chaos.csv (lambda in 1/s as well); the "
                          f"section points in {STEM}_sections.parquet."],
                   float_format=lambda v: f"{v:.4g}")
-        _fig_sections(rep, secs, pts)
-        _fig_bifurcation(rep, "clearance", secs, pts, an)
-        _fig_bifurcation(rep, "friction", secs, pts, an)
+        _fig_sections(rep, secs, pts, period)
+        _fig_bifurcation(rep, "clearance", secs, pts, an, period)
+        _fig_bifurcation(rep, "friction", secs, pts, an, period)
         _fig_spectra(rep, spectra)
         rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
                   notes=["Integrator statistics of each case (nld.simulate, dopri5) and wall time on this "
