@@ -8,18 +8,78 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import os
+import shutil
+import subprocess
+
+from nld.cli import main
 from nld.io import load_table
 from nld.report import Report
-from study_harness import count_pages, run_quick
+from study_harness import ROOT, count_pages, load_study
+
+
+def _tracked_state():
+    """git's view of the tracked files (status) and the mtimes of the committed reports, or None
+    outside a git checkout."""
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        return None
+    status = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                            capture_output=True, text=True, timeout=60).stdout
+    files = subprocess.run(["git", "-C", str(ROOT), "ls-files", "reports", "studies"],
+                           capture_output=True, text=True, timeout=60).stdout.split()
+    return status, {f: (ROOT / f).stat().st_mtime_ns for f in files if (ROOT / f).exists()}
 
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
-    return run_quick("zhang2013_excavator.py", tmp_path_factory)
+    """The main job as a user runs it, through the command line from a fresh directory:
+    ``nld study zhang2013 --quick`` writes to ./nld-out/ (the default)."""
+    study = load_study("zhang2013_excavator.py")
+    cwd = tmp_path_factory.mktemp("zhang2013_cwd")
+    before = _tracked_state()
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        rc = main(["study", "zhang2013", "--quick", "--quiet"])
+    finally:
+        os.chdir(old)
+    assert rc == 0
+    out = cwd / "nld-out"
+    return study, out, out / "zhang2013_excavator.pdf", before
+
+
+def test_the_main_job_leaves_the_checkout_clean(quick_run):
+    """No tracked file changes (the committed full-mode reports in reports/ are not touched)."""
+    before = quick_run[3]
+    if before is None:
+        pytest.skip("not a git checkout")
+    after = _tracked_state()
+    assert after[0] == before[0]
+    assert after[1] == before[1]
+
+
+def test_no_section_under_the_minimum_is_called_chaotic(quick_run):
+    """Quick mode's sections have 2 points: a positive exponent reads 'λ1 > 0, short', never
+    'chaotic'; every exponent carries its estimator settings (rtol of the analysis)."""
+    import json
+    study, out, _, _ = quick_run
+    pts, _ = load_table(out / "zhang2013_excavator_chaos.csv")
+    short = pts[pts["section_points"] < study.MIN_SECTION_POINTS]
+    assert len(short) == len(pts) and (short["verdict"] != "chaotic").all()
+    pos = pts[(pts["status"] == "ok") & (pts["lambda_per_rev"] - pts["lambda_unc_per_rev"] > 0)]
+    assert (pos["verdict"] == "λ1 > 0, short").all()
+    for st in pts.loc[pts["status"] == "ok", "estimator_settings"]:
+        d = json.loads(st)
+        assert d["rtol"] == study.ANALYSIS_QUICK["rtol"] and d["total"] > 0 and d["method"]
+    assert study.verdict("ok", 2.0, 0.5, 60) == "chaotic"
+    assert study.verdict("ok", 2.0, 0.5, 8) == "λ1 > 0, short"
+    assert study.verdict("ok", -2.0, 0.5, 8) == "regular"
+    line = study.estimator_line(pts, 2 * np.pi / study.OMEGA1)
+    assert "rtol 1e-05" in line and "averaged over 2 rev" in line
 
 
 def test_quick_writes_pdf_parquet_and_summary(quick_run):
-    study, out, pdf = quick_run
+    study, out, pdf, _ = quick_run
     assert pdf == out / "zhang2013_excavator.pdf" and pdf.is_file()
     data = pdf.read_bytes()
     assert data.startswith(b"%PDF")
@@ -34,7 +94,7 @@ def test_quick_writes_pdf_parquet_and_summary(quick_run):
 
 
 def test_parquet_holds_every_case_with_provenance(quick_run):
-    study, out, _ = quick_run
+    study, out, _, _ = quick_run
     df, prov = load_table(out / "zhang2013_excavator.parquet")
     assert list(df.columns[:2]) == ["case", "steady"]
     assert set(df["case"]) == set(study.CASES) | {"ideal"}
@@ -49,7 +109,7 @@ def test_parquet_holds_every_case_with_provenance(quick_run):
 
 
 def test_table_max_omega_equals_stored_series(quick_run):
-    study, out, _ = quick_run
+    study, out, _, _ = quick_run
     df, _ = load_table(out / "zhang2013_excavator.parquet")
     summary, _ = load_table(out / "zhang2013_excavator_summary.csv")
     om = summary[summary["quantity"] == "max |rod.omega|"].set_index("case")
@@ -66,7 +126,7 @@ def test_table_max_omega_equals_stored_series(quick_run):
 
 
 def test_chaos_analysis_table_matches_stored_sections(quick_run):
-    study, out, _ = quick_run
+    study, out, _, _ = quick_run
     pts, prov = load_table(out / "zhang2013_excavator_chaos.csv")
     secs, _ = load_table(out / "zhang2013_excavator_sections.parquet")
     an = study.ANALYSIS_QUICK
