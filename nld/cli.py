@@ -490,10 +490,9 @@ def cmd_study(args) -> int:
         keeps = getattr(module, "INTERRUPT_KEEPS", None) or (
             "nothing kept: the report and its data are written only at the end (no partial PDF); "
             "run the study again")
-        inner = f" ({e.kept})" if isinstance(e, Interrupted) and e.kept and getattr(module, "INTERRUPT_KEEPS", None) else ""
         raise Interrupted(f"study {path.stem} interrupted",
                           kept=f"study {path.stem} stopped after {time.perf_counter() - start:.3g} s"
-                               f"{where}: {keeps}{inner}") from None
+                               f"{where}: {keeps}") from None
     finally:
         study_started(None)
     wall = time.perf_counter() - start

@@ -62,6 +62,11 @@ QUICK = {
 MAPS = {"slider_crank": SC, "excavator": EX}
 
 
+# what `nld study chaos_onset` keeps when interrupted (Ctrl-C): said in its one-line message
+INTERRUPT_KEEPS = ("the finished cells are kept under <out>/.work/; run the same command again to "
+                   "resume from them")
+
+
 def work_dir(out_dir: Path, name: str, mode: str) -> Path:
     """Where the map ``name`` keeps one parquet file per finished cell, so an interrupted study
     run again resumes instead of starting over (the full mode takes about 31 min on 2 idle
