@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError
-from .systems import advance, builtin_map, builtin_map_jac
+from .systems import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
 
 __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_benettin",
            "lyapunov_spectrum", "blocking_se",
@@ -51,7 +51,7 @@ DEFAULTS = {
     # Benettin, flows: renorm_interval = base, checks = 32 per interval when the system has a
     # period (else 1), early renormalisation when the separation exceeds max_growth * d0,
     # transient = 20 base, total = 500 base
-    "flow": dict(rtol=1e-10, d0=1e-5, max_growth=10.0, checks_with_period=32,
+    "flow": dict(rtol=1e-10, d0=1e-4, max_growth=10.0, checks_with_period=32,
                  transient_base=20.0, total_base=500.0, interval_base=1.0),
     # perturbation vectors, flows: renorm_interval = base / 32 (period) or 0.1 (no period)
     "spectrum_flow": dict(rtol=1e-10, d0=1e-5, transient_base=20.0, total_base=500.0,
@@ -493,8 +493,8 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
                     yp = yp_new
                     n_renorm += 1
             rates[i] = acc / T
-        settings = dict(transient=transient, total=n_int * T, renorm_interval=T, d0=d0,
-                        rtol=rtol, seed=seed, checks=checks, max_growth=max_growth,
+        settings = dict(estimator="benettin", transient=transient, total=n_int * T,
+                        renorm_interval=T, d0=d0, rtol=rtol, seed=seed, checks=checks, max_growth=max_growth,
                         renormalisations=n_renorm, n_blocks=n_blocks, norm="scaled",
                         scales=system.scales.tolist())
         period = system.period
@@ -629,6 +629,33 @@ def _progress_bar(total: float, desc: str, unit: str, enabled):
                            "[{elapsed}<{remaining}, {rate_fmt}]")
 
 
+def _advance_bounded(system, y, z, t0, t1, rtol):
+    """``advance`` over [t0, t1] in stretches of at most 50 periods, each near the time origin
+    and with the angles wrapped (so long transients keep their accuracy at tight rtol)."""
+    if system.period is None:
+        return advance(system, y, z, t0, t1, rtol)
+    span = 50.0 * system.period
+    t = t0
+    while t < t1:
+        te = min(t1, t + span)
+        sh = period_shift(system, t)
+        y, z = advance(system, wrap_angles(system, y), z, t - sh, te - sh, rtol)
+        t = te
+    return y, z
+
+
+def _per_period(rates: np.ndarray, T: float, period) -> np.ndarray:
+    """Local rates (n, k) averaged over groups of whole periods (rows: periods); unchanged
+    without a period or when the interval does not divide it."""
+    if period is None:
+        return rates
+    m = int(round(period / T))
+    if m <= 1 or abs(m * T - period) > 1e-9 * period or rates.shape[0] < 2 * m:
+        return rates
+    n = (rates.shape[0] // m) * m
+    return rates[:n].reshape(n // m, m, rates.shape[1]).mean(axis=1)
+
+
 def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_interval=None,
                      rtol=None, seed: int = 0, align=None, tangent_err: bool = True,
                      target_uncertainty: float | None = None, max_total=None,
@@ -690,7 +717,8 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     if not (isinstance(rtol, (int, float)) and 1e-14 <= rtol < 1):
         raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
     if target_uncertainty is not None:
-        if not (isinstance(target_uncertainty, (int, float)) and 0 < target_uncertainty < 1):
+        if not (isinstance(target_uncertainty, (int, float, np.floating)) and
+                0 < target_uncertainty < 1):
             raise InputError(f"target_uncertainty = {target_uncertainty!r}: must be a relative "
                              "uncertainty in (0, 1), e.g. 0.05")
         max_total = 10.0 * total if max_total is None else max_total
@@ -706,7 +734,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     y, z = system.y0.copy(), system.z0.copy()
     t = system.t0
     if transient > 0:
-        y, z = advance(system, y, z, t, t + transient, rtol)
+        y, z = _advance_bounded(system, y, z, t, t + transient, rtol)
         t += transient
     Q0 = np.linalg.qr(rng.standard_normal((n, k)))[0].T          # (k, n), scaled
     W = np.ascontiguousarray(Q0 * system.scales)
@@ -714,9 +742,11 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     h = 0.0
     if align > 0:
         n_al = max(1, int(round(align / T)))
-        run = run_tangent(system, y, z, W, Wz, t, t + T * np.arange(1, n_al + 1), rtol,
-                          tangent_err=tangent_err, h0=h)
-        y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t
+        sh = period_shift(system, t)
+        y = wrap_angles(system, y)
+        run = run_tangent(system, y, z, W, Wz, t - sh, (t - sh) + T * np.arange(1, n_al + 1),
+                          rtol, tangent_err=tangent_err, h0=h)
+        y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t + sh
     diag = new_diag()
     logs: list[np.ndarray] = []
     n_target = n_int
@@ -732,10 +762,14 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     try:
         while done < n_target:
             m = min(chunk, n_target - done)
-            marks = t + T * np.arange(1, m + 1)
-            run = run_tangent(system, y, z, W, Wz, t, marks, rtol, tangent_err=tangent_err,
+            # near the time origin, angles wrapped (systems.period_shift, wrap_angles)
+            sh = period_shift(system, t)
+            y = wrap_angles(system, y)
+            marks = (t - sh) + T * np.arange(1, m + 1)
+            run = run_tangent(system, y, z, W, Wz, t - sh, marks, rtol, tangent_err=tangent_err,
                               h0=h, diag=diag)
-            y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t
+            y, z, W, Wz, h = run.y, run.z, run.W, run.Wz, run.h_next
+            t = marks[run.logs.shape[0] - 1] + sh if run.logs.shape[0] else t
             logs.append(run.logs)
             stats += run.stats
             done += run.logs.shape[0]
@@ -744,8 +778,8 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
             if run.status == 1:
                 break
             if target_uncertainty is not None and done >= n_target and n_target < n_max:
-                r1 = np.concatenate(logs)[:, 0] / T
-                est, _, se, sp = _stats(r1, np.full(r1.shape, T))
+                r1 = _per_period(np.concatenate(logs) / T, T, system.period)[:, 0]
+                est, _, se, sp = _stats(r1, np.ones(r1.shape))
                 u = _uncertainty(se, sp)
                 if abs(est) > 0 and u / abs(est) <= target_uncertainty:
                     reached = True
@@ -760,12 +794,18 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     rates = L / T
     if target_uncertainty is not None and reached is None:
         reached = False
-    weights = np.full(rates.shape[0], T)
+    # statistics per whole period (a forced system's local rates repeat with the forcing: the
+    # mean over whole periods is exact for a periodic motion, and blocks of whole periods are
+    # what the blocking estimate should start from); a trailing part period is dropped
+    per = _per_period(rates, T, system.period)
+    Tw = T * (rates.shape[0] // per.shape[0]) if per.shape[0] else T
+    weights = np.full(per.shape[0], Tw)
     times = np.cumsum(weights)
-    avg_time = float(rates.shape[0] * T)
+    avg_time = float(per.shape[0] * Tw)
+    rates = per
     dd = diag_dict(diag)
     if system.period is not None:
-        periods = avg_time / system.period
+        periods = L.shape[0] * T / system.period
         dd["events_per_period"] = dd["events"] / periods
         dd["onsets_per_period"] = dd["upward_crossings"] / periods
     dd["steps"] = int(stats[1])

@@ -118,6 +118,7 @@ class ContinuousSystem:
 
     is_map = False
     builtin_code = None       # set for the built-in flows (cached tangent integrator)
+    angle_states = np.zeros(0, dtype=np.int64)   # states that are angles (rad): may be wrapped
 
     def __init__(self, rhs, y0, p=(), name: str = "system", state_names=None, scales=None,
                  period: float | None = None, *, z0=None, events=None, on_event=None,
@@ -247,6 +248,30 @@ class DiscreteMap:
 
 
 # ---------------------------------------------------------------- integration of one interval
+def wrap_angles(system, y, like=None):
+    """y with its angle states (``system.angle_states``) brought into [-pi, pi) by whole turns
+    (the dynamics depend on angles through sin and cos only). With ``like``, the turns are those
+    that wrap ``like`` (to move a nearby trajectory with the reference, keeping their difference)."""
+    idx = system.angle_states
+    if idx.size == 0:
+        return y
+    ref = y if like is None else like
+    turns = np.floor((ref[idx] + math.pi) / (2.0 * math.pi))
+    out = np.array(y, dtype=float)
+    out[idx] -= 2.0 * math.pi * turns
+    return out
+
+
+def period_shift(system, t: float) -> float:
+    """A whole number of forcing periods to subtract from the time t so that an integration
+    starting at t runs near the time origin: exact for a periodic forcing, and it keeps the
+    crank angle omega t and t itself small (their round-off grows with t and, after some
+    hundred revolutions, exceeds the absolute tolerance that rtol 1e-11 asks)."""
+    if system.period is None:
+        return 0.0
+    return math.floor((t - system.t0) / system.period) * system.period
+
+
 def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 1e-10, *,
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
     """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
@@ -504,6 +529,9 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
                             method=method, memory=memory, period_name="revolution")
     sysm.scene = scene
     sysm.kernel = kern
+    sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
+                                  if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
+                                 dtype=np.int64)
     sysm.tolerance_fn = lambda rtol, _k=kern, _q=q: tolerances(_k, _q, rtol)
     return sysm
 

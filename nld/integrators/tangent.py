@@ -321,6 +321,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
     ytmp = np.empty(n)
     yint = np.empty(n)
     ya = np.empty(n)
+    yb = np.empty(n)
     KY = np.empty((7, n))
     KW = np.empty((7, k, n))
     Wt = np.empty((k, n))          # stage tangents
@@ -579,6 +580,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             # the field on the old branch, at the left end of the bracket
             _interp5((a_star - t) / h, y, cont, ya)
             rhs(a_star, ya, p, z, fminus)
+            _interp5((t_star - t) / h, y, cont, yb)     # on the new side (for f+)
             nfev += 1
             if t_star > t:
                 retake = True       # recompute the step [t, t_star]: state and tangents
@@ -616,7 +618,12 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
         diag[DG_EVENTS] += n_fired
         if n_fired > 1:
             diag[DG_SIMUL] += n_fired - 1
-        rhs(t, y, p, z, fplus)
+        # the field on the new branch: at the bracket's right end on the dense output, which
+        # is on the new side by construction (the retaken state may miss it by round-off)
+        if first >= 0:
+            rhs(t, yb, p, z, fplus)
+        else:
+            rhs(t, y, p, z, fplus)
         nfev += 1
         if first >= 0:
             _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
