@@ -152,34 +152,59 @@ class SpectrumResult:
                 f" +- {self.total_uncertainty:.2g}")
 
 
-COVERAGE_Z = 2.0          # uncertainty = COVERAGE_Z x (blocking standard error): ~95 %
+COVERAGE_Z = 2.1          # uncertainty = COVERAGE_Z x (blocking standard error): ~95 %
 MIN_BLOCKS = 16           # the coarsest blocking level kept
 
 
 def blocking_se(rates: np.ndarray) -> tuple[float, int]:
-    """Standard error of the mean of a correlated series by blocking (Flyvbjerg & Petersen,
-    J. Chem. Phys. 91 (1989) 461): pairs of neighbours are averaged again and again; the naive
-    standard error std/sqrt(N) of the blocked series grows while the blocks are still correlated
-    and levels off once they are not. Returned: the largest value over the levels that still
-    have at least MIN_BLOCKS blocks (conservative), and that level's block length (intervals).
-    Local stretching rates of a chaotic or quasi-periodic motion are correlated over many
-    intervals, so the plain standard error of 20 fixed blocks underestimates the error
-    (docs/lyapunov.md, "Uncertainty")."""
+    """Standard error of the mean of the local rates, from blocking (Flyvbjerg & Petersen,
+    J. Chem. Phys. 91 (1989) 461) extrapolated to infinitely long blocks.
+
+    Neighbouring rates are averaged in pairs again and again (block length tau = 1, 2, 4, ...
+    intervals) and the naive standard error se(tau) = std/sqrt(N_blocks) of every level with at
+    least 8 blocks is kept. The mean of a block of length tau is ln(|w_end|/|w_start|)/tau: a
+    diffusive part, whose variance falls like 2D/tau, plus the fluctuation of ln|w| at the two
+    ends (the direction of the vector against the local stretching), a variance C/tau^2 that
+    does not average out within a block. Hence N_blocks se(tau)^2 tau = 2D + C/tau: se(tau)^2
+    is linear in 1/tau, falling when C > 0 (local rates of a flow are anti-correlated: a stretch
+    is undone in the next interval) and rising for positive short-time correlations (C < 0).
+    A weighted straight-line fit of se^2 against 1/tau (weights from the error of each level's
+    variance, 2 se^4/(N_blocks - 1)) gives the intercept: the standard error of infinitely long
+    blocks. When the fit is not positive the coarsest level's value is used. Returned: the
+    standard error and the number of levels fitted."""
     x = np.asarray(rates, dtype=float)
     x = x[np.isfinite(x)]
     if x.size < 2:
         return float("nan"), 0
-    best, best_len, length = 0.0, 1, 1
-    while x.size >= MIN_BLOCKS or length == 1:
-        se = float(np.std(x, ddof=1) / math.sqrt(x.size)) if x.size >= 2 else 0.0
-        if se > best:
-            best, best_len = se, length
-        if x.size < 2 * MIN_BLOCKS:
-            break
-        m = x.size // 2
+    taus, se2, w = [], [], []
+    length = 1
+    while x.size >= 8:
+        nb = x.size
+        v = float(np.var(x, ddof=1) / nb)
+        taus.append(length)
+        se2.append(v)
+        w.append((nb - 1) / (2.0 * v * v) if v > 0 else 0.0)
+        m = nb // 2
         x = 0.5 * (x[:2 * m:2] + x[1:2 * m:2])
         length *= 2
-    return best, best_len
+    if not taus:
+        v = float(np.var(np.asarray(rates, dtype=float), ddof=1) / len(rates))
+        return math.sqrt(v), 0
+    se2 = np.array(se2)
+    if len(taus) < 3 or not np.all(np.isfinite(w)) or sum(w) == 0:
+        return float(math.sqrt(se2[-1])), len(taus)
+    # the 1/tau form holds for blocks longer than the correlation time: fit the coarser half
+    # of the levels (at least the three coarsest)
+    i0 = min(len(taus) // 2, len(taus) - 3)
+    taus, se2, w = taus[i0:], se2[i0:], w[i0:]
+    X = 1.0 / np.array(taus, dtype=float)
+    W = np.array(w)
+    A = np.vstack([np.ones_like(X), X]).T
+    coef = np.linalg.lstsq(A * np.sqrt(W)[:, None], se2 * np.sqrt(W), rcond=None)[0]
+    a = float(coef[0])
+    if not (a > 0 and math.isfinite(a)):
+        return float(math.sqrt(se2[-1])), len(taus)
+    return math.sqrt(a), len(taus)
 
 
 def _stats(rates: np.ndarray, weights: np.ndarray, n_blocks: int | None = None):
@@ -645,10 +670,10 @@ def _advance_bounded(system, y, z, t0, t1, rtol):
 
 
 def _per_period(rates: np.ndarray, T: float, period) -> np.ndarray:
-    """Local rates (n, k) averaged over groups of whole periods (rows: periods); unchanged
-    without a period or when the interval does not divide it."""
+    """Local rates (n, k) averaged over groups of whole periods (rows: periods); a flow without
+    a period is grouped by its time unit. Unchanged when the interval does not divide it."""
     if period is None:
-        return rates
+        period = 1.0          # flows without a period: the base time unit of the defaults
     m = int(round(period / T))
     if m <= 1 or abs(m * T - period) > 1e-9 * period or rates.shape[0] < 2 * m:
         return rates
