@@ -110,7 +110,8 @@ def _np(attr: str, *args) -> ast.expr:
 
 
 def _copy(e):
-    return ast.parse(ast.unparse(e), mode="eval").body
+    import copy
+    return copy.deepcopy(e)
 
 
 class _Activity(ast.NodeVisitor):
@@ -425,8 +426,6 @@ class _Transformer:
             # x *= v, x /= v: rewrite as x = x op v
             load = _copy(tgt)
             load.ctx = ast.Load()
-            if isinstance(load, ast.Subscript):
-                load = ast.parse(ast.unparse(load), mode="eval").body
             new = ast.Assign([_copy(tgt)], ast.BinOp(load, s.op, s.value), lineno=0)
             return self.stmt(new)
         if isinstance(s, ast.If):

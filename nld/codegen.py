@@ -732,7 +732,11 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             "                max_steps, n_events, max_log)",
             "",
         ]
-    out += tangent_source(rhs_src, events_src, on_event_src)
+    try:
+        out += tangent_source(rhs_src, events_src, on_event_src)
+    except (ValueError, SyntaxError) as e:     # nld.autodiff.AutodiffError is a ValueError
+        # no tangent functions for this kernel: nld.tangent falls back on finite differences
+        out += [f"TANGENT_UNAVAILABLE = {' '.join(str(e).split())!r}", ""]
     return "\n".join(out) + "\n"
 
 

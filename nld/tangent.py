@@ -218,7 +218,7 @@ def tangent_functions(system):
     if system.is_map:
         raise InputError(f"{system.name} is a map: it has no tangent flow (its Jacobian is used)")
     kern = getattr(system, "kernel", None)
-    if kern is not None:
+    if kern is not None and hasattr(kern.module, "solve_tangent"):
         res = (kern.module.solve_tangent, "generated")
     elif getattr(system, "builtin_code", None) is not None:
         res = (_BuiltinTangent(system.builtin_code), "analytic")
