@@ -64,7 +64,7 @@ class Kernel:
 def kernel_dependencies() -> list[Path]:
     """The source files whose change must give a new kernel (see ``_generator_digest``)."""
     here = Path(__file__).resolve().parent
-    files = [here / f for f in ("codegen.py", "topology.py", "parameters.py", "kernel_support.py",
+    files = [here / f for f in ("codegen.py", "autodiff.py", "topology.py", "parameters.py", "kernel_support.py",
                                 "contact.py", "friction.py")]
     return files + sorted((here / "integrators").glob("*.py"))
 

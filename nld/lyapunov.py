@@ -39,9 +39,10 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError
-from .systems import advance, builtin_map, builtin_map_jac
+from .systems import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
 
-__all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_benettin", "lyapunov_spectrum",
+__all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_benettin",
+           "lyapunov_spectrum", "blocking_se",
            "lyapunov_nolds", "DEFAULTS"]
 
 # documented defaults (docs/lyapunov.md); "base" = the system's period (a scene: one crank
@@ -50,12 +51,16 @@ DEFAULTS = {
     # Benettin, flows: renorm_interval = base, checks = 32 per interval when the system has a
     # period (else 1), early renormalisation when the separation exceeds max_growth * d0,
     # transient = 20 base, total = 500 base
-    "flow": dict(rtol=1e-10, d0=1e-5, max_growth=10.0, checks_with_period=32,
+    "flow": dict(rtol=1e-10, d0=1e-4, max_growth=10.0, checks_with_period=32,
                  transient_base=20.0, total_base=500.0, interval_base=1.0),
     # perturbation vectors, flows: renorm_interval = base / 32 (period) or 0.1 (no period)
     "spectrum_flow": dict(rtol=1e-10, d0=1e-5, transient_base=20.0, total_base=500.0,
                           interval_period=1.0 / 32.0, interval_no_period=0.1),
     "map": dict(d0=1e-9, renorm_interval=1, transient=1000, total=100_000),
+    # tangent dynamics, flows: renorm_interval = base / 8 (period) or 0.1 (no period),
+    # transient 20 base (state only), align 2 base (vectors, discarded), total 200 base
+    "tangent": dict(rtol=1e-10, transient_base=20.0, align_base=2.0, total_base=200.0,
+                    interval_period=1.0 / 8.0, interval_no_period=0.1),
     "n_blocks": 20,
 }
 
@@ -85,17 +90,25 @@ class LyapunovResult:
     system: str
     period: float | None
     settings: dict = field(default_factory=dict)
+    period_name: str = "revolution"
+    diagnostics: dict = field(default_factory=dict)
+    check: dict | None = None
 
     @property
     def uncertainty_per_revolution(self):
         return None if self.period is None else self.uncertainty * self.period
+
+    @property
+    def per_period(self):
+        """exponent x period (per crank revolution of a scene, per forcing period)."""
+        return self.per_revolution
 
     def __str__(self):
         s = (f"{self.method} {self.system}: lambda1 = {self.exponent:.6g} +- "
              f"{self.uncertainty:.2g} {self.units}")
         if self.per_revolution is not None:
             s += (f" = {self.per_revolution:.4g} +- {self.uncertainty_per_revolution:.2g}"
-                  " per revolution")
+                  f" per {self.period_name}")
         return s
 
 
@@ -122,10 +135,16 @@ class SpectrumResult:
     system: str
     period: float | None
     settings: dict = field(default_factory=dict)
+    period_name: str = "revolution"
+    diagnostics: dict = field(default_factory=dict)
 
     @property
     def exponent(self) -> float:
         return float(self.exponents[0])
+
+    @property
+    def uncertainty_per_revolution(self):
+        return None if self.period is None else self.uncertainty * self.period
 
     def __str__(self):
         ex = ", ".join(f"{e:.5g}+-{u:.2g}" for e, u in zip(self.exponents, self.uncertainty))
@@ -133,23 +152,82 @@ class SpectrumResult:
                 f" +- {self.total_uncertainty:.2g}")
 
 
-def _stats(rates: np.ndarray, weights: np.ndarray, n_blocks: int):
-    """Running estimate, block standard error, half-range of the last half of the history."""
+COVERAGE_Z = 2.1          # uncertainty = COVERAGE_Z x (blocking standard error): ~95 %
+MIN_BLOCKS = 16           # the coarsest blocking level kept
+
+
+def blocking_se(rates: np.ndarray) -> tuple[float, int]:
+    """Standard error of the mean of the local rates, from blocking (Flyvbjerg & Petersen,
+    J. Chem. Phys. 91 (1989) 461) extrapolated to infinitely long blocks.
+
+    Neighbouring rates are averaged in pairs again and again (block length tau = 1, 2, 4, ...
+    intervals) and the naive standard error se(tau) = std/sqrt(N_blocks) of every level with at
+    least 8 blocks is kept. The mean of a block of length tau is ln(|w_end|/|w_start|)/tau: a
+    diffusive part, whose variance falls like 2D/tau, plus the fluctuation of ln|w| at the two
+    ends (the direction of the vector against the local stretching), a variance C/tau^2 that
+    does not average out within a block. Hence N_blocks se(tau)^2 tau = 2D + C/tau: se(tau)^2
+    is linear in 1/tau, falling when C > 0 (local rates of a flow are anti-correlated: a stretch
+    is undone in the next interval) and rising for positive short-time correlations (C < 0).
+    A weighted straight-line fit of se^2 against 1/tau (weights from the error of each level's
+    variance, 2 se^4/(N_blocks - 1)) gives the intercept: the standard error of infinitely long
+    blocks. When the fit is not positive the coarsest level's value is used. Returned: the
+    standard error and the number of levels fitted."""
+    x = np.asarray(rates, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return float("nan"), 0
+    taus, se2, w = [], [], []
+    length = 1
+    while x.size >= 8:
+        nb = x.size
+        v = float(np.var(x, ddof=1) / nb)
+        taus.append(length)
+        se2.append(v)
+        w.append((nb - 1) / (2.0 * v * v) if v > 0 else 0.0)
+        m = nb // 2
+        x = 0.5 * (x[:2 * m:2] + x[1:2 * m:2])
+        length *= 2
+    if not taus:
+        v = float(np.var(np.asarray(rates, dtype=float), ddof=1) / len(rates))
+        return math.sqrt(v), 0
+    se2 = np.array(se2)
+    if len(taus) < 3 or not np.all(np.isfinite(w)) or sum(w) == 0:
+        return float(math.sqrt(se2[-1])), len(taus)
+    # the 1/tau form holds for blocks longer than the correlation time: fit the coarser half
+    # of the levels (at least the three coarsest)
+    i0 = min(len(taus) // 2, len(taus) - 3)
+    taus, se2, w = taus[i0:], se2[i0:], w[i0:]
+    X = 1.0 / np.array(taus, dtype=float)
+    W = np.array(w)
+    A = np.vstack([np.ones_like(X), X]).T
+    coef = np.linalg.lstsq(A * np.sqrt(W)[:, None], se2 * np.sqrt(W), rcond=None)[0]
+    a = float(coef[0])
+    if not (a > 0 and math.isfinite(a)):
+        return float(math.sqrt(se2[-1])), len(taus)
+    return math.sqrt(a), len(taus)
+
+
+def _stats(rates: np.ndarray, weights: np.ndarray, n_blocks: int | None = None):
+    """Running estimate, blocking standard error, half-range of the last half of the history.
+
+    The mean is weighted by the interval lengths; the standard error is the blocking estimate
+    (``blocking_se``) of the rates (equal intervals in every estimator). n_blocks is kept for
+    the call signature: blocking chooses the block length itself."""
     csum = np.cumsum(rates * weights)
     cw = np.cumsum(weights)
     hist = csum / cw
     est = float(hist[-1])
     n = rates.shape[0]
-    nb = int(min(n_blocks, n))
-    if nb >= 2:
-        means = np.array([np.sum(r * w) / np.sum(w) for r, w in
-                          zip(np.array_split(rates, nb), np.array_split(weights, nb))])
-        se = float(np.std(means, ddof=1) / math.sqrt(nb))
-    else:
-        se = float("nan")
+    se, _ = blocking_se(rates)
     tail = hist[n // 2:]
     spread = float(0.5 * (tail.max() - tail.min())) if tail.size else float("nan")
     return est, hist, se, spread
+
+
+def _uncertainty(se: float, spread: float) -> float:
+    """The reported uncertainty: COVERAGE_Z blocking standard errors (about a 95 % interval),
+    and never less than the half-range of the running estimate over its last half."""
+    return max(COVERAGE_Z * se, spread)
 
 
 def _units(system) -> str:
@@ -314,6 +392,21 @@ def _flow_settings(system, transient, total, renorm_interval, d0, rtol, spectrum
     return float(transient), n_int, float(renorm_interval), float(d0), float(rtol)
 
 
+def _rescale_memory(system, z, zp, factor):
+    """Renormalisation of the perturbed copy's memory states (``system.memory``: a contact
+    law's approach velocity recorded at onset) together with its continuous state: where both
+    trajectories are in the same contact (both memories set), the copy's memory is put back on
+    the line to the reference's by the same factor as the state, zp = z + factor (zp - z), i.e.
+    to what the memory of the rescaled copy is to first order. Where only one of them is in
+    contact the copy's memory is its own (its onset or separation is handled by
+    ``_cross_events``). Without this the copy keeps, for the rest of a contact, the memory of a
+    trajectory it is no longer near, and every renormalisation injects a spurious force
+    difference (docs/lyapunov.md, "The discrete state")."""
+    for m in system.memory:
+        if zp[m] != 0.0 and z[m] != 0.0:
+            zp[m] = z[m] + factor * (zp[m] - z[m])
+
+
 def _cross_events(system, t, y_old, y_new, z):
     """Renormalisation moves a perturbed state from y_old to y_new. Where that jump crosses an
     event surface (g_k changes sign) the crossing is reported to ``on_event`` as the integrator
@@ -420,12 +513,13 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
                 if c == checks - 1 or d > max_growth * d0:
                     acc += math.log(d / d0)
                     yp_new = y + (d0 / d) * dy
+                    _rescale_memory(system, z, zp, d0 / d)
                     _cross_events(system, tb, yp, yp_new, zp)
                     yp = yp_new
                     n_renorm += 1
             rates[i] = acc / T
-        settings = dict(transient=transient, total=n_int * T, renorm_interval=T, d0=d0,
-                        rtol=rtol, seed=seed, checks=checks, max_growth=max_growth,
+        settings = dict(estimator="benettin", transient=transient, total=n_int * T,
+                        renorm_interval=T, d0=d0, rtol=rtol, seed=seed, checks=checks, max_growth=max_growth,
                         renormalisations=n_renorm, n_blocks=n_blocks, norm="scaled",
                         scales=system.scales.tolist())
         period = system.period
@@ -434,9 +528,10 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
     est, hist, se, spread = _stats(rates, weights, n_blocks)
     return LyapunovResult(
         exponent=est, per_revolution=None if period is None else est * period, history=hist,
-        times=times, uncertainty=se + spread, block_se=se, history_spread=spread,
+        times=times, uncertainty=_uncertainty(se, spread), block_se=se, history_spread=spread,
         units=_units(system), local_rates=rates, method="benettin", system=system.name,
-        period=period, settings=settings)
+        period=period, settings=settings,
+        period_name=getattr(system, "period_name", "revolution"))
 
 
 # ---------------------------------------------------------------- spectrum
@@ -511,8 +606,19 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
                                  "shorten renorm_interval or change d0")
             rates[i] = np.log(np.abs(diag)) / T
             Q = Q * np.sign(diag)
+            # the memory differences follow the separations: Z_new = Z_old R^-1 (as Q = D R^-1)
+            mem = system.memory
+            if mem.size:
+                Zd = np.array([zp[j][mem] - z[mem] for j in range(k)]).T     # (m, k)
+                both = np.array([(zp[j][mem] != 0.0) & (z[mem] != 0.0) for j in range(k)]).T
+                Rs = np.sign(diag)[:, None] * R                  # D = Q Rs after the sign fix
+                Zn = np.linalg.solve(Rs.T, Zd.T).T                # Zd Rs^-1
             for j in range(k):
                 yj = y + d0 * sc * Q[:, j]
+                if mem.size:
+                    for a, m in enumerate(mem):
+                        if both[a, j]:
+                            zp[j][m] = z[m] + Zn[a, j]
                 _cross_events(system, t1, yp[j], yj, zp[j])
                 yp[j] = yj
         settings = dict(transient=transient, total=n_int * T, renorm_interval=T, d0=d0,
@@ -528,9 +634,243 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
     tot, _, tse, tsp = _stats(rates.sum(axis=1), weights, n_blocks)
     return SpectrumResult(
         exponents=ex, per_revolution=None if period is None else ex * period, history=hist,
-        times=times, uncertainty=se + sp, block_se=se, history_spread=sp, total=tot,
-        total_uncertainty=tse + tsp, units=_units(system), local_rates=rates, method=method,
-        system=system.name, period=period, settings=settings)
+        times=times, uncertainty=np.array([_uncertainty(a, b) for a, b in zip(se, sp)]),
+        block_se=se, history_spread=sp, total=tot, total_uncertainty=_uncertainty(tse, tsp), units=_units(system), local_rates=rates, method=method,
+        system=system.name, period=period, settings=settings,
+        period_name=getattr(system, "period_name", "revolution"))
+
+
+# ---------------------------------------------------------------- tangent dynamics
+def _progress_bar(total: float, desc: str, unit: str, enabled):
+    """A tqdm bar on stderr (enabled None: only when stderr is a terminal)."""
+    import sys
+    if enabled is None:
+        enabled = sys.stderr.isatty()
+    if not enabled:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} {unit} "
+                           "[{elapsed}<{remaining}, {rate_fmt}]")
+
+
+def _advance_bounded(system, y, z, t0, t1, rtol):
+    """``advance`` over [t0, t1] in stretches of at most 50 periods, each near the time origin
+    and with the angles wrapped (so long transients keep their accuracy at tight rtol)."""
+    if system.period is None:
+        return advance(system, y, z, t0, t1, rtol)
+    span = 50.0 * system.period
+    t = t0
+    while t < t1:
+        te = min(t1, t + span)
+        sh = period_shift(system, t)
+        y, z = advance(system, wrap_angles(system, y), z, t - sh, te - sh, rtol)
+        t = te
+    return y, z
+
+
+def _per_period(rates: np.ndarray, T: float, period) -> np.ndarray:
+    """Local rates (n, k) averaged over groups of whole periods (rows: periods); a flow without
+    a period is grouped by its time unit. Unchanged when the interval does not divide it."""
+    if period is None:
+        period = 1.0          # flows without a period: the base time unit of the defaults
+    m = int(round(period / T))
+    if m <= 1 or abs(m * T - period) > 1e-9 * period or rates.shape[0] < 2 * m:
+        return rates
+    n = (rates.shape[0] // m) * m
+    return rates[:n].reshape(n // m, m, rates.shape[1]).mean(axis=1)
+
+
+def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_interval=None,
+                     rtol=None, seed: int = 0, align=None, tangent_err: bool = True,
+                     target_uncertainty: float | None = None, max_total=None,
+                     progress=None, check: bool = False, n_blocks: int | None = None):
+    """The first k Lyapunov exponents from the tangent (variational) dynamics, with saltation
+    matrices at every event (docs/lyapunov.md). The default estimator of ``nld lyapunov``.
+
+    system: any continuous system of ``nld.systems`` (scene, built-in or user ODE); a map is
+    sent to the tangent-map QR of ``lyapunov_spectrum``. k: number of exponents (default 1).
+
+    The reference trajectory and k tangent vectors are integrated in lock step by DOPRI5
+    (``nld.tangent``, ``nld.integrators.tangent``): the same stages and steps, the event
+    location of the reference, each tangent vector mapped by the event's saltation matrix; the
+    vectors are re-orthonormalised (modified Gram-Schmidt in the scaled norm) every
+    ``renorm_interval`` and ln R_cc / T are the local rates (Benettin et al. 1980; Shimada &
+    Nagashima 1979). Times in the system's unit (s):
+      transient: 20 periods (else 20): the state alone, by ``advance``, discarded;
+      align: 2 periods (else 2): the tangent vectors settle onto the leading directions;
+        discarded;
+      total: 200 periods (else 200): the averaging time; with ``target_uncertainty`` the
+        minimum averaging time, extended in steps of total/4 until the relative uncertainty
+        (uncertainty / |lambda_1|) is reached or ``max_total`` (default 10 x total) is spent;
+      renorm_interval: period/8 (else 0.1): short enough that the spread of the exponents over
+        one interval stays far inside the 16 digits of the vectors;
+      rtol: 1e-10, atol = system.tolerance(rtol). tangent_err: the tangent vectors take part in
+        the step-size control (nld.integrators.tangent).
+    seed: the random initial frame. progress: a bar on stderr (None: when it is a terminal).
+    check: also compute lambda_1 with the two-trajectory estimator (``lyapunov_benettin``,
+      same transient, averaging time and rtol) and report both in ``result.check``.
+
+    Returns a LyapunovResult for k = 1, else a SpectrumResult; ``diagnostics`` holds the event
+    and saltation counts (events, upward crossings = contact onsets of a scene, grazing events,
+    simultaneous events) and per-period rates of them; ``settings`` every setting used.
+    """
+    from .tangent import diag_dict, run_tangent, tangent_functions
+    from .integrators.tangent import new_diag
+    if system.is_map:
+        return lyapunov_spectrum(system, k, transient=transient, total=total,
+                                 renorm_interval=renorm_interval, seed=seed, n_blocks=n_blocks)
+    n = system.n
+    k = int(k)
+    if not 1 <= k <= n:
+        raise InputError(f"k = {k!r}: must be between 1 and the number of states {n}")
+    base = system.period if system.period is not None else 1.0
+    d = DEFAULTS["tangent"]
+    if renorm_interval is None:
+        renorm_interval = (base * d["interval_period"] if system.period is not None
+                           else d["interval_no_period"])
+    _check_positive("renorm_interval", renorm_interval)
+    transient = d["transient_base"] * base if transient is None else transient
+    total = d["total_base"] * base if total is None else total
+    align = d["align_base"] * base if align is None else align
+    for nm, v in (("transient", transient), ("align", align)):
+        if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v)
+                and v >= 0):
+            raise InputError(f"{nm} = {v!r}: must be a time >= 0")
+    _check_positive("total", total)
+    rtol = d["rtol"] if rtol is None else rtol
+    if not (isinstance(rtol, (int, float)) and 1e-14 <= rtol < 1):
+        raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
+    if target_uncertainty is not None:
+        if not (isinstance(target_uncertainty, (int, float, np.floating)) and
+                0 < target_uncertainty < 1):
+            raise InputError(f"target_uncertainty = {target_uncertainty!r}: must be a relative "
+                             "uncertainty in (0, 1), e.g. 0.05")
+        max_total = 10.0 * total if max_total is None else max_total
+        _check_positive("max_total", max_total)
+        if max_total < total:
+            raise InputError(f"max_total = {max_total!r}: must be >= total = {total!r}")
+    T = float(renorm_interval)
+    n_int = int(round(total / T))
+    if n_int < 2:
+        raise InputError(f"total = {total!r}: need at least two renormalisation intervals of {T:g}")
+    _, how = tangent_functions(system)
+    rng = np.random.default_rng(seed)
+    y, z = system.y0.copy(), system.z0.copy()
+    t = system.t0
+    if transient > 0:
+        y, z = _advance_bounded(system, y, z, t, t + transient, rtol)
+        t += transient
+    Q0 = np.linalg.qr(rng.standard_normal((n, k)))[0].T          # (k, n), scaled
+    W = np.ascontiguousarray(Q0 * system.scales)
+    Wz = np.zeros((k, z.size))
+    h = 0.0
+    if align > 0:
+        n_al = max(1, int(round(align / T)))
+        sh = period_shift(system, t)
+        y = wrap_angles(system, y)
+        run = run_tangent(system, y, z, W, Wz, t - sh, (t - sh) + T * np.arange(1, n_al + 1),
+                          rtol, tangent_err=tangent_err, h0=h)
+        y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t + sh
+    diag = new_diag()
+    logs: list[np.ndarray] = []
+    n_target = n_int
+    n_max = n_int if target_uncertainty is None else int(round(max_total / T))
+    chunk = max(1, int(round((base if system.period is not None else 1.0) / T)))
+    chunk = max(chunk, n_int // 200)
+    bar = _progress_bar(n_max * T / base, f"lyapunov {system.name}",
+                        "rev" if getattr(system, "period_name", "") == "revolution" else
+                        ("periods" if system.period is not None else system.time_unit), progress)
+    done = 0
+    reached = None
+    stats = np.zeros(5, dtype=np.int64)
+    try:
+        while done < n_target:
+            m = min(chunk, n_target - done)
+            # near the time origin, angles wrapped (systems.period_shift, wrap_angles)
+            sh = period_shift(system, t)
+            y = wrap_angles(system, y)
+            marks = (t - sh) + T * np.arange(1, m + 1)
+            run = run_tangent(system, y, z, W, Wz, t - sh, marks, rtol, tangent_err=tangent_err,
+                              h0=h, diag=diag)
+            y, z, W, Wz, h = run.y, run.z, run.W, run.Wz, run.h_next
+            t = marks[run.logs.shape[0] - 1] + sh if run.logs.shape[0] else t
+            logs.append(run.logs)
+            stats += run.stats
+            done += run.logs.shape[0]
+            if bar is not None:
+                bar.update(run.logs.shape[0] * T / base)
+            if run.status == 1:
+                break
+            if target_uncertainty is not None and done >= n_target and n_target < n_max:
+                r1 = _per_period(np.concatenate(logs) / T, T, system.period)[:, 0]
+                est, _, se, sp = _stats(r1, np.ones(r1.shape))
+                u = _uncertainty(se, sp)
+                if abs(est) > 0 and u / abs(est) <= target_uncertainty:
+                    reached = True
+                else:
+                    n_target = min(n_max, n_target + max(1, n_int // 4))
+    finally:
+        if bar is not None:
+            bar.close()
+    L = np.concatenate(logs) if logs else np.zeros((0, k))
+    if L.shape[0] < 2:
+        raise InputError(f"{system.name}: the tangent run stopped after {L.shape[0]} intervals")
+    rates = L / T
+    if target_uncertainty is not None and reached is None:
+        reached = False
+    # statistics per whole period (a forced system's local rates repeat with the forcing: the
+    # mean over whole periods is exact for a periodic motion, and blocks of whole periods are
+    # what the blocking estimate should start from); a trailing part period is dropped
+    per = _per_period(rates, T, system.period)
+    Tw = T * (rates.shape[0] // per.shape[0]) if per.shape[0] else T
+    weights = np.full(per.shape[0], Tw)
+    times = np.cumsum(weights)
+    avg_time = float(per.shape[0] * Tw)
+    rates = per
+    dd = diag_dict(diag)
+    if system.period is not None:
+        periods = L.shape[0] * T / system.period
+        dd["events_per_period"] = dd["events"] / periods
+        dd["onsets_per_period"] = dd["upward_crossings"] / periods
+    dd["steps"] = int(stats[1])
+    dd["rejected"] = int(stats[2])
+    settings = dict(estimator="tangent", transient=float(transient), align=float(align),
+                    total=avg_time, renorm_interval=T, rtol=float(rtol), seed=seed,
+                    tangent_err=bool(tangent_err), jacobian=how, norm="scaled",
+                    scales=system.scales.tolist(), integrator="dopri5 (tangent, lock step)",
+                    target_uncertainty=target_uncertainty,
+                    max_total=None if target_uncertainty is None else float(max_total),
+                    target_reached=reached)
+    period = system.period
+    pname = getattr(system, "period_name", "revolution")
+    if k == 1:
+        est, hist, se, sp = _stats(rates[:, 0], weights, n_blocks)
+        res = LyapunovResult(
+            exponent=est, per_revolution=None if period is None else est * period,
+            history=hist, times=times, uncertainty=_uncertainty(se, sp), block_se=se,
+            history_spread=sp, units=_units(system), local_rates=rates[:, 0],
+            method="tangent", system=system.name, period=period, settings=settings,
+            period_name=pname, diagnostics=dd)
+        if check:
+            b = lyapunov_benettin(system, transient=transient, total=avg_time, rtol=rtol,
+                                  seed=seed)
+            diff = abs(b.exponent - res.exponent)
+            res.check = dict(benettin=b.exponent, benettin_uncertainty=b.uncertainty,
+                             tangent=res.exponent, tangent_uncertainty=res.uncertainty,
+                             difference=diff, agree=bool(diff <= b.uncertainty + res.uncertainty),
+                             benettin_settings=b.settings)
+        return res
+    ex, se, sp, hist = np.empty(k), np.empty(k), np.empty(k), np.empty((rates.shape[0], k))
+    for j in range(k):
+        ex[j], hist[:, j], se[j], sp[j] = _stats(rates[:, j], weights, n_blocks)
+    tot, _, tse, tsp = _stats(rates.sum(axis=1), weights, n_blocks)
+    return SpectrumResult(
+        exponents=ex, per_revolution=None if period is None else ex * period, history=hist,
+        times=times, uncertainty=np.array([_uncertainty(a, b) for a, b in zip(se, sp)]),
+        block_se=se, history_spread=sp, total=tot, total_uncertainty=_uncertainty(tse, tsp),
+        units=_units(system), local_rates=rates, method="tangent QR", system=system.name,
+        period=period, settings=settings, period_name=pname, diagnostics=dd)
 
 
 @njit

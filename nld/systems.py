@@ -103,15 +103,34 @@ class ContinuousSystem:
             "rodas" (Rodas4 with a finite-difference Jacobian; reproduces Lorenz' exponent, but
             on contact scenes it is slow and its exponents are not reliable: docs/lyapunov.md,
             "Tolerance-dependent exponents"). ``solve=`` must then be a wrapper of that method.
+    jacobian: optional numba ``jac(t, y, p, z, J)`` writing the n x n Jacobian df/dy into J,
+            used by the tangent estimator (``nld.tangent``).
+    jvp:    where the tangent estimator takes Jacobian-vector products from when no jacobian
+            is given: "auto" (default: forward differentiation of the rhs source by
+            ``nld.autodiff`` when it knows every construct, else finite differences),
+            "autodiff" (refuse if it cannot), "fd" (central finite differences).
+    memory: indices of the entries of z that are memory states (a contact law's approach
+            velocity): part of the perturbation of the two-trajectory estimators (rescaled
+            with the state at each renormalisation); default none. Scenes set them.
+    period_name: what one period is called in results ("forcing period"; a scene:
+            "revolution").
     """
 
     is_map = False
+    builtin_code = None       # set for the built-in flows (cached tangent integrator)
+    angle_states = np.zeros(0, dtype=np.int64)   # states that are angles (rad): may be wrapped
 
     def __init__(self, rhs, y0, p=(), name: str = "system", state_names=None, scales=None,
                  period: float | None = None, *, z0=None, events=None, on_event=None,
                  n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
-                 t0: float = 0.0, method: str = "dopri5"):
+                 t0: float = 0.0, method: str = "dopri5", jacobian=None, jvp: str = "auto",
+                 memory=(), period_name: str = "forcing period"):
         self.method = _check_system_method(method)
+        if jvp not in ("auto", "autodiff", "fd"):
+            raise InputError(f"jvp = {jvp!r}: must be 'auto', 'autodiff' or 'fd'")
+        self.jacobian = jacobian
+        self.jvp = jvp
+        self.period_name = str(period_name)
         self.rhs = rhs
         self.y0 = _as_vector(y0, "y0")
         self.n = self.y0.size
@@ -138,6 +157,10 @@ class ContinuousSystem:
         self.hmax = float(hmax)
         self.time_unit = time_unit
         self.t0 = float(t0)
+        self.memory = np.array(sorted(int(i) for i in memory), dtype=np.int64)
+        if self.memory.size and (self.memory.min() < 0 or self.memory.max() >= self.z0.size):
+            raise InputError(f"memory = {list(memory)!r}: must index entries of z0 "
+                             f"(0..{self.z0.size - 1})")
 
     def tolerance(self, rtol: float) -> np.ndarray:
         """The atol vector for the integrators at ``rtol``: ``rtol * scales`` by default; n
@@ -225,6 +248,30 @@ class DiscreteMap:
 
 
 # ---------------------------------------------------------------- integration of one interval
+def wrap_angles(system, y, like=None):
+    """y with its angle states (``system.angle_states``) brought into [-pi, pi) by whole turns
+    (the dynamics depend on angles through sin and cos only). With ``like``, the turns are those
+    that wrap ``like`` (to move a nearby trajectory with the reference, keeping their difference)."""
+    idx = system.angle_states
+    if idx.size == 0:
+        return y
+    ref = y if like is None else like
+    turns = np.floor((ref[idx] + math.pi) / (2.0 * math.pi))
+    out = np.array(y, dtype=float)
+    out[idx] -= 2.0 * math.pi * turns
+    return out
+
+
+def period_shift(system, t: float) -> float:
+    """A whole number of forcing periods to subtract from the time t so that an integration
+    starting at t runs near the time origin: exact for a periodic forcing, and it keeps the
+    crank angle omega t and t itself small (their round-off grows with t and, after some
+    hundred revolutions, exceeds the absolute tolerance that rtol 1e-11 asks)."""
+    if system.period is None:
+        return 0.0
+    return math.floor((t - system.t0) / system.period) * system.period
+
+
 def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 1e-10, *,
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
     """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
@@ -333,8 +380,12 @@ class _BuiltinSolve:
 def lorenz(sigma: float = 10.0, rho: float = 28.0, beta: float = 8.0 / 3.0,
            y0=(1.0, 1.0, 1.0)) -> ContinuousSystem:
     """Lorenz system; at the classical (10, 28, 8/3) the spectrum is 0.906, 0, -14.572 (1/time)."""
-    return ContinuousSystem(lorenz_rhs, y0, [sigma, rho, beta], "lorenz", ["x", "y", "z"],
-                            solve=_BuiltinSolve(_LORENZ))
+    name = ("lorenz" if (sigma, rho, beta) == (10.0, 28.0, 8.0 / 3.0)
+            else f"lorenz(sigma={sigma:g}, rho={rho:g}, beta={beta:g})")
+    s = ContinuousSystem(lorenz_rhs, y0, [sigma, rho, beta], name, ["x", "y", "z"],
+                         solve=_BuiltinSolve(_LORENZ))
+    s.builtin_code = _LORENZ
+    return s
 
 
 def duffing(delta: float = 0.3, alpha: float = -1.0, beta: float = 1.0, gamma: float = 0.5,
@@ -345,8 +396,12 @@ def duffing(delta: float = 0.3, alpha: float = -1.0, beta: float = 1.0, gamma: f
     the two exponents sum to -delta exactly. The defaults (Guckenheimer & Holmes' double well)
     are chaotic.
     """
-    return ContinuousSystem(duffing_rhs, y0, [delta, alpha, beta, gamma, omega], "duffing",
-                            ["x", "x_dot"], period=2.0 * math.pi / omega, solve=_BuiltinSolve(_DUFFING))
+    s = ContinuousSystem(duffing_rhs, y0, [delta, alpha, beta, gamma, omega],
+                         f"duffing(delta={delta:g}, alpha={alpha:g}, beta={beta:g}, "
+                         f"gamma={gamma:g}, omega={omega:g})",
+                         ["x", "x_dot"], period=2.0 * math.pi / omega, solve=_BuiltinSolve(_DUFFING))
+    s.builtin_code = _DUFFING
+    return s
 
 
 def linear(a: float = -0.5, y0=(0.0,)) -> ContinuousSystem:
@@ -356,7 +411,9 @@ def linear(a: float = -0.5, y0=(0.0,)) -> ContinuousSystem:
     over any horizon (a separation d0 away from a state that has grown to 1e9 is lost in
     round-off)."""
     y0 = np.atleast_1d(np.array(y0, dtype=float))
-    return ContinuousSystem(linear_rhs, y0, [a], f"linear(a={a:g})", solve=_BuiltinSolve(_LINEAR))
+    s = ContinuousSystem(linear_rhs, y0, [a], f"linear(a={a:g})", solve=_BuiltinSolve(_LINEAR))
+    s.builtin_code = _LINEAR
+    return s
 
 
 # ---------------------------------------------------------------- built-in maps
@@ -463,12 +520,18 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     mod = kern.module
     solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
              "rodas": mod.solve_rodas}[_check_system_method(method)]
+    from .codegen import NEEDS_VMINUS
+    memory = [ci for ci, jn in enumerate(kern.topo.clearance)
+              if scene.joints[jn].contact.law in NEEDS_VMINUS]
     sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
                             state_scales(kern, q), period, z0=z0, events=mod.events,
                             on_event=mod.on_event, n_events=kern.n_events, solve=solve,
-                            method=method)
+                            method=method, memory=memory, period_name="revolution")
     sysm.scene = scene
     sysm.kernel = kern
+    sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
+                                  if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
+                                 dtype=np.int64)
     sysm.tolerance_fn = lambda rtol, _k=kern, _q=q: tolerances(_k, _q, rtol)
     return sysm
 

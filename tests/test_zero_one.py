@@ -107,14 +107,14 @@ def _section_and_exponent(overrides, transient):
     """100 stroboscopic points of B.ex at rtol 1e-10, then lambda1 (Benettin) over 20 revolutions
     from the end of the section. rtol 1e-10: at 1e-8 and 1e-9 the periodic case's section wanders
     over the clearance (lambda ~ +3 per revolution, K ~ 1): see docs/analysis.md."""
-    from nld.lyapunov import lyapunov_benettin
+    from nld.lyapunov import lyapunov_tangent
     from nld.poincare import stroboscopic
     from nld.systems import SceneSystem
     sec = stroboscopic("slider_crank", transient_revs=transient, revs=100, overrides=overrides,
                        rtol=1e-10)
     s = SceneSystem("slider_crank", overrides)
     s.y0, s.z0 = sec.y_final.copy(), sec.z_final.copy()
-    return sec.table["B.ex"].to_numpy(), lyapunov_benettin(s, transient=0.0, total=20 * s.period)
+    return sec.table["B.ex"].to_numpy(), lyapunov_tangent(s, transient=0.0, total=20 * s.period)
 
 
 def test_scene_chaotic_series():

@@ -1,0 +1,674 @@
+"""DOPRI5 for a trajectory together with its tangent vectors, saltation at every event.
+
+The tangent (variational) dynamics of y' = f(t, y, z) (z: the discrete state, changed only at
+events) are w' = D_y f(t, y, z) w + D_z f(t, y, z) w_z with w_z constant between events. This
+integrator advances the reference state y and k tangent vectors (w, w_z) in lock step: the same
+Dormand-Prince 5(4) stages (so the tangent is the exact derivative of the numerical map, step
+sizes frozen), the same steps, the same event location. At an event g_k(t, y) = 0 with reset
+z+ = R(t, y, z-) (``on_event``) and a vector field that jumps from f- to f+, each tangent vector
+is mapped by the saltation matrix (Mueller 1995; Leine & Nijmeijer 2004, sec. 7; Kong et al. 2023):
+
+    dtau  = -(grad g . w) / gdot,   gdot = dg/dt + grad g . f-     (time shift of the event)
+    w+    = w + (f- - f+) dtau                                        (R leaves y alone)
+    w_z+  = D_t R dtau + D_y R (w + f- dtau) + D_z R w_z              (memory reset, e.g. LN v-)
+
+which is S = DR + (f+ - DR f- - R_t) grad g^T / gdot written for a reset acting on z only
+(docs/lyapunov.md, "Saltation"). f- is the field at the left end of the located root bracket
+(the old branch), f+ the field at the right end with the reset discrete state (the new branch).
+A grazing event (gdot = 0 to round-off) is counted and gets no time-shift term.
+
+Error control (``tangent_err``): 1 includes every tangent vector in the step-size control, each
+with the absolute tolerance ``atol_i * ||w||_s`` (its current scaled size) and the same rtol
+weights as its state, and the step is accepted only when both the state's and every vector's
+RMS errors are <= 1; 0 controls the state only (the tangents then ride on the state's steps).
+Including them is the default: on a stiff contact an explicit method runs at its stability
+limit, where the state's stiff component is held at the error tolerance but a tangent vector's
+stiff component, O(1) after each re-orthonormalisation, would not be (docs/lyapunov.md).
+
+Between ``marks`` (re-orthonormalisation times, landed on exactly) the vectors are not touched; at
+each mark the scaled vectors w_c / scales are orthonormalised by modified Gram-Schmidt (twice),
+the memory parts w_z transformed by the same triangular factor (w -> w R^-1 for both parts),
+and ln R_cc recorded in ``logs[mark, c]``.
+
+Event location: after every accepted step every event function is also evaluated at three
+interior points of the step's dense output (1/4, 1/2, 3/4), so that a contact lost and regained
+within one step (two sign changes) is located; each root is then found by Illinois' method in the
+first sub-interval where the sign changed.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
+                     A71, A73, A74, A75, A76, BETA, C2, C3, C4, C5, D1, D3, D4, D5, D6, D7, E1,
+                     E3, E4, E5, E6, E7, EPS, EXPO1, FACC1, FACC2, FACOLD0, MAX_NONFINITE,
+                     ROOT_MAXITER, ROOT_RTOL, SAFE, rweight)
+
+N_SUB = 4                  # sub-intervals scanned for sign changes in every step
+GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
+
+# diag entries
+DG_SALT, DG_GRAZE, DG_MINRATIO, DG_LOGDET, DG_DIV, DG_EVENTS, DG_SIMUL, DG_UP = 0, 1, 2, 3, 4, 5, 6, 7
+N_DIAG = 8
+
+
+@njit(cache=True)
+def new_diag():
+    d = np.zeros(N_DIAG)
+    d[DG_MINRATIO] = np.inf
+    return d
+
+
+@njit(cache=True, inline='always')
+def _dense5(h, y, ynew, k1, k3, k4, k5, k6, k7, cont):
+    """Hairer's DOPRI5 continuous extension, coefficients in cont[0..3]."""
+    n = y.shape[0]
+    for i in range(n):
+        ydiff = ynew[i] - y[i]
+        bspl = h * k1[i] - ydiff
+        cont[0, i] = ydiff
+        cont[1, i] = bspl
+        cont[2, i] = ydiff - h * k7[i] - bspl
+        cont[3, i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i]
+                          + D7 * k7[i])
+
+
+@njit(cache=True, inline='always')
+def _interp5(theta, y, cont, out):
+    th1 = 1.0 - theta
+    for i in range(y.shape[0]):
+        out[i] = y[i] + theta * (cont[0, i] + th1 * (cont[1, i] + theta * (cont[2, i]
+                                                                          + th1 * cont[3, i])))
+
+
+@njit(cache=False, inline='always')
+def bracket_root(events, k, s, t, h, ta, tb, ga, gb, y, cont, yint, gtmp, p, z, tol):
+    """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t + h],
+    within the sub-interval [ta, tb] where g_k leaves side s (ga on side s, gb on the other side
+    or 0). Returns (a, b): a on side s, b on the new side (or at the root), b - a <= tol.
+
+    If ga is not strictly on side s (just after an event at ta, g_k is zero up to round-off),
+    the left end is moved to the first of ta + tol*4^j where g_k is on side s; if there is
+    none, the crossing is "now" and (ta, ta) is returned."""
+    if gb == 0.0:
+        return tb, tb
+    a = ta
+    fa = ga
+    if ga * s <= 0.0:
+        d = tol
+        while True:
+            a = ta + d
+            if a >= tb:
+                return ta, ta
+            _interp5((a - t) / h, y, cont, yint)
+            events(a, yint, p, z, gtmp)
+            fa = gtmp[k]
+            if fa * s > 0.0:
+                break
+            d *= 4.0
+    b = tb
+    fb = gb
+    side = 0
+    for _ in range(ROOT_MAXITER):
+        if b - a <= tol or b - a <= 4.0 * EPS * abs(b):
+            break
+        c = b - fb * (b - a) / (fb - fa)
+        if not (c > a and c < b):
+            c = 0.5 * (a + b)
+        _interp5((c - t) / h, y, cont, yint)
+        events(c, yint, p, z, gtmp)
+        fc = gtmp[k]
+        if fc == 0.0:
+            return a, c
+        if fc * fb > 0.0:
+            b = c
+            fb = fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            a = c
+            fa = fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+    return a, b
+
+
+@njit(cache=False, inline='always')
+def scan_step(events, t, h, t_new, y, cont, gcur, gnew, sgn, gsub, tsub, yint, gtmp, p, z,
+              crossed, ta_k, tb_k, ga_k, gb_k):
+    """For every event function: the first of the N_SUB sub-intervals of [t, t_new] (dense
+    output) at whose right end g_k has left its tracked side sgn[k]. Fills crossed, and the
+    sub-bracket (ta_k, tb_k, ga_k, gb_k). Returns whether any crossed."""
+    ne = gcur.shape[0]
+    for k in range(ne):
+        gsub[0, k] = gcur[k]
+        gsub[N_SUB, k] = gnew[k]
+    tsub[0] = t
+    tsub[N_SUB] = t_new
+    for j in range(1, N_SUB):
+        tj = t + (j / N_SUB) * h
+        tsub[j] = tj
+        _interp5(j / N_SUB, y, cont, yint)
+        events(tj, yint, p, z, gtmp)
+        for k in range(ne):
+            gsub[j, k] = gtmp[k]
+    anyc = False
+    for k in range(ne):
+        crossed[k] = False
+        if sgn[k] == 0:
+            continue
+        for j in range(1, N_SUB + 1):
+            if gsub[j, k] * sgn[k] <= 0.0:
+                crossed[k] = True
+                ta_k[k] = tsub[j - 1]
+                tb_k[k] = tsub[j]
+                ga_k[k] = gsub[j - 1, k]
+                gb_k[k] = gsub[j, k]
+                anyc = True
+                break
+    if anyc:      # narrow to 1/64 of the step: two roots closer than a quarter step
+        for k in range(ne):
+            if not crossed[k]:
+                continue
+            a = ta_k[k]
+            dt = (tb_k[k] - a) / 16.0
+            for j in range(1, 16):
+                tj = a + j * dt
+                _interp5((tj - t) / h, y, cont, yint)
+                events(tj, yint, p, z, gtmp)
+                if gtmp[k] * sgn[k] <= 0.0:
+                    tb_k[k] = tj
+                    gb_k[k] = gtmp[k]
+                    break
+                ta_k[k] = tj
+                ga_k[k] = gtmp[k]
+    return anyc
+
+
+@njit(cache=True, inline='always')
+def _orthonormalise(W, Wz, scales, logs_row):
+    """Modified Gram-Schmidt (twice) of the scaled rows W[c]/scales; Wz rows follow."""
+    k, n = W.shape
+    nz = Wz.shape[1]
+    for c in range(k):
+        for i in range(n):
+            W[c, i] /= scales[i]
+    for c in range(k):
+        for _rep in range(2):
+            for j in range(c):
+                r = 0.0
+                for i in range(n):
+                    r += W[c, i] * W[j, i]
+                for i in range(n):
+                    W[c, i] -= r * W[j, i]
+                for i in range(nz):
+                    Wz[c, i] -= r * Wz[j, i]
+        nr = 0.0
+        for i in range(n):
+            nr += W[c, i] * W[c, i]
+        nr = math.sqrt(nr)
+        logs_row[c] = math.log(nr) if nr > 0.0 else -np.inf
+        if nr > 0.0:
+            for i in range(n):
+                W[c, i] /= nr
+            for i in range(nz):
+                Wz[c, i] /= nr
+    for c in range(k):
+        for i in range(n):
+            W[c, i] *= scales[i]
+
+
+@njit(cache=True, inline='always')
+def _scaled_norm(w, scales):
+    s = 0.0
+    for i in range(w.shape[0]):
+        q = w[i] / scales[i]
+        s += q * q
+    return math.sqrt(s)
+
+
+@njit(cache=False, inline='always')
+def _stage_eval(rhs, rhs_jvp, ts, ytmp, p, z, W, Wz, KW, s, KY, wtmp, want_div, trace_tmp, unit):
+    """KY[s] = f(ts, ytmp); KW[s, c] = J (wtmp_c, Wz_c); returns tr J when want_div."""
+    k = W.shape[0]
+    n = ytmp.shape[0]
+    for c in range(k):
+        for i in range(n):
+            wtmp[i] = W[c, i]
+        rhs_jvp(ts, ytmp, p, z, KY[s], 0.0, wtmp, Wz[c], KW[s, c])
+    tr = 0.0
+    if want_div:
+        zz = np.zeros(Wz.shape[1])
+        for m in range(n):
+            for i in range(n):
+                unit[i] = 0.0
+            unit[m] = 1.0
+            rhs_jvp(ts, ytmp, p, z, trace_tmp, 0.0, unit, zz, wtmp)
+            tr += wtmp[m]
+    return tr
+
+
+ATAB = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                 [A21, 0.0, 0.0, 0.0, 0.0, 0.0],
+                 [A31, A32, 0.0, 0.0, 0.0, 0.0],
+                 [A41, A42, A43, 0.0, 0.0, 0.0],
+                 [A51, A52, A53, A54, 0.0, 0.0],
+                 [A61, A62, A63, A64, A65, 0.0],
+                 [A71, 0.0, A73, A74, A75, A76]])
+CTAB = np.array([0.0, C2, C3, C4, C5, 1.0, 1.0])
+BTAB = np.array([A71, 0.0, A73, A74, A75, A76, 0.0])
+ETAB = np.array([E1, 0.0, E3, E4, E5, E6, E7])
+
+
+@njit(cache=False, inline='always')
+def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
+               crossed, troot_b, t_fire, sgn, diag, gtmp, gd, unit, wtmp, zcopy, zdz, zzero):
+    """Map every tangent vector through the event ``first`` (module docstring)."""
+    k, n = W.shape
+    nz = Wz.shape[1]
+    ne = gtmp.shape[0]
+    # gdot = dg/dt + grad g . f-, and the size of its terms (grazing test)
+    events_jvp(t, y, p, zold, gtmp, 1.0, fminus, zzero, gd)
+    gdot = gd[first]
+    for i in range(n):
+        unit[i] = 0.0
+    events_jvp(t, y, p, zold, gtmp, 1.0, unit, zzero, gd)
+    scale = abs(gd[first])
+    for i in range(n):
+        unit[i] = 1.0
+        events_jvp(t, y, p, zold, gtmp, 0.0, unit, zzero, gd)
+        scale += abs(gd[first] * fminus[i])
+        unit[i] = 0.0
+    ratio = abs(gdot) / scale if scale > 0.0 else 0.0
+    if ratio < diag[DG_MINRATIO]:
+        diag[DG_MINRATIO] = ratio
+    graze = not (ratio > GRAZE_RTOL)
+    if graze:
+        diag[DG_GRAZE] += 1
+    else:
+        # det S on y = gdot+ / gdot- (matrix determinant lemma)
+        events_jvp(t, y, p, zold, gtmp, 1.0, fplus, zzero, gd)
+        if gd[first] != 0.0 and gdot != 0.0:
+            diag[DG_LOGDET] += math.log(abs(gd[first] / gdot))
+        diag[DG_SALT] += 1
+    for c in range(k):
+        for i in range(n):
+            wtmp[i] = W[c, i]
+        events_jvp(t, y, p, zold, gtmp, 0.0, wtmp, Wz[c], gd)
+        dtau = 0.0 if graze else -gd[first] / gdot
+        # memory reset: w_z+ = R_t dtau + R_y (w + f- dtau) + R_z w_z
+        for i in range(nz):
+            zcopy[i] = zold[i]
+            zdz[i] = Wz[c, i]
+        for i in range(n):
+            unit[i] = wtmp[i] + fminus[i] * dtau
+        for q in range(ne):
+            if crossed[q] and troot_b[q] <= t_fire:
+                on_event_jvp(q, sgn[q], t, y, p, zcopy, dtau, unit, zdz)
+        for i in range(nz):
+            Wz[c, i] = zdz[i]
+        for i in range(n):
+            W[c, i] = wtmp[i] + (fminus[i] - fplus[i]) * dtau
+
+
+@njit(cache=False, inline='always')
+def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W, Wz,
+                   marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events, tangent_err,
+                   want_div, diag, logs):
+    """Integrate (y, W, Wz) from t0 through every time in ``marks`` (ascending, > t0),
+    re-orthonormalising the tangent vectors at each (module docstring).
+
+    W (k, n): tangent vectors of y as rows; Wz (k, nz): their discrete-state parts; z: the
+    discrete state. z, W, Wz, diag and logs (len(marks), k) are updated in place.
+    Returns (status, t_reached, y, n_marks_done, stats, h_next); statuses and stats as dopri5.
+    """
+    n = y0.shape[0]
+    k = W.shape[0]
+    nz = Wz.shape[1]
+    ne = n_events
+    n_marks = marks.shape[0]
+    stats = np.zeros(5, dtype=np.int64)
+
+    y = y0.copy()
+    ynew = np.empty(n)
+    ytmp = np.empty(n)
+    yint = np.empty(n)
+    ya = np.empty(n)
+    yb = np.empty(n)
+    KY = np.empty((7, n))
+    KW = np.empty((7, k, n))
+    Wt = np.empty((k, n))          # stage tangents
+    Wnew = np.empty((k, n))
+    wtmp = np.empty(n)
+    unit = np.empty(n)
+    trace_tmp = np.empty(n)
+    cont = np.empty((4, n))
+    contW = np.empty((k, 4, n))
+    fminus = np.empty(n)
+    fplus = np.empty(n)
+    zold = np.empty(nz)
+    zcopy = np.empty(nz)
+    gcur = np.empty(ne)
+    gnew = np.empty(ne)
+    gtmp = np.empty(ne)
+    gd = np.empty(ne)
+    gsub = np.empty((N_SUB + 1, ne))
+    tsub = np.empty(N_SUB + 1)
+    sgn = np.zeros(ne, dtype=np.int64)
+    crossed = np.zeros(ne, dtype=np.bool_)
+    ta_k = np.empty(ne)
+    tb_k = np.empty(ne)
+    ga_k = np.empty(ne)
+    gb_k = np.empty(ne)
+    troot_a = np.empty(ne)
+    troot_b = np.empty(ne)
+    zzero = np.zeros(nz)
+    zdz = np.empty(nz)
+
+    t = t0
+    i_mark = 0
+    if n_marks == 0:
+        return 0, t, y, 0, stats, h0
+    t_end = marks[n_marks - 1]
+    n_steps = 0
+    n_acc = 0
+    n_rej = 0
+    nfev = 0
+
+    tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div, trace_tmp, unit)
+    nfev += 1
+    if ne > 0:
+        events(t, y, p, z, gcur)
+        for q in range(ne):
+            if gcur[q] > 0.0:
+                sgn[q] = 1
+            elif gcur[q] < 0.0:
+                sgn[q] = -1
+
+    span = t_end - t0
+    hcap = span
+    if hmax > 0.0 and hmax < hcap:
+        hcap = hmax
+    if h0 > 0.0:
+        h = min(h0, hcap)
+    else:
+        # Hairer's initial step on the state
+        dnf = 0.0
+        dny = 0.0
+        for i in range(n):
+            sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
+            dnf += (KY[0, i] / sk) ** 2
+            dny += (y[i] / sk) ** 2
+        if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf):
+            h = 1.0e-6
+        else:
+            h = math.sqrt(dny / dnf) * 0.01
+        h = min(h, hcap)
+    if not (h > 0.0) or not math.isfinite(h):
+        h = 1e-6 * span
+
+    facold = FACOLD0
+    reject = False
+    n_nonfinite = 0
+    status = 0
+    hnew = h
+    trs = np.zeros(7)
+    retake = False           # the next pass recomputes the step [t, t_star] after an event
+    t_star = t
+    a_star = t
+    first = -1
+    tol = 0.0
+    while True:
+        if not retake:
+            if t >= t_end:
+                status = 0
+                break
+            if n_steps >= max_steps:
+                status = -1
+                break
+            target = marks[i_mark]
+            if h > hcap:
+                h = hcap
+            if h < 4.0 * EPS * abs(t):
+                h = 4.0 * EPS * abs(t)
+            if t + 1.01 * h >= target:
+                t_new = target
+            else:
+                t_new = t + h
+            h = t_new - t
+            n_steps += 1
+        else:
+            t_new = t_star
+            h = t_star - t
+
+        # ---------------------------------------------- stages (state and tangents)
+        trs[0] = tr1
+        for st in range(1, 7):
+            for i in range(n):
+                acc = 0.0
+                for j in range(st):
+                    acc += ATAB[st, j] * KY[j, i]
+                ytmp[i] = y[i] + h * acc
+            for c in range(k):
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(st):
+                        acc += ATAB[st, j] * KW[j, c, i]
+                    Wt[c, i] = W[c, i] + h * acc
+            if st == 6:
+                for i in range(n):
+                    ynew[i] = ytmp[i]
+                for c in range(k):
+                    for i in range(n):
+                        Wnew[c, i] = Wt[c, i]
+            trs[st] = _stage_eval(rhs, rhs_jvp, t + CTAB[st] * h, ytmp, p, z, Wt, Wz, KW, st,
+                                  KY, wtmp, want_div, trace_tmp, unit)
+        nfev += 6
+
+        if retake:
+            ok = True
+            for i in range(n):
+                if not math.isfinite(ynew[i]):
+                    ok = False
+            if not ok:
+                status = -3
+                break
+        else:
+            # ------------------------------------------ error
+            acc = 0.0
+            finite = True
+            for i in range(n):
+                if not math.isfinite(ynew[i]):
+                    finite = False
+                e = 0.0
+                for j in range(7):
+                    e += ETAB[j] * KY[j, i]
+                e *= h
+                sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(ynew[i]))
+                acc += (e / sk) ** 2
+            err = math.sqrt(acc / n)
+            for c in range(k):
+                nrm = _scaled_norm(W[c], scales)
+                acc = 0.0
+                for i in range(n):
+                    if not math.isfinite(Wnew[c, i]):
+                        finite = False
+                    if tangent_err:
+                        e = 0.0
+                        for j in range(7):
+                            e += ETAB[j] * KW[j, c, i]
+                        e *= h
+                        sk = atol[i] * nrm + rtol * rweight(atol, n, i) * max(abs(W[c, i]),
+                                                                                abs(Wnew[c, i]))
+                        if sk > 0.0:
+                            acc += (e / sk) ** 2
+                if tangent_err:
+                    ec = math.sqrt(acc / n)
+                    if ec > err:
+                        err = ec
+            if not finite or not math.isfinite(err):
+                n_rej += 1
+                n_nonfinite += 1
+                reject = True
+                h = 0.5 * h
+                if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+                    status = -3
+                    break
+                continue
+            n_nonfinite = 0
+            fac11 = err ** EXPO1
+            if err > 1.0:
+                h = h / min(FACC1, fac11 / SAFE)
+                reject = True
+                n_rej += 1
+                if h < 16.0 * EPS * abs(t) or h < 1e-300:
+                    status = -2
+                    break
+                continue
+            fac = fac11 / facold ** BETA
+            fac = max(FACC2, min(FACC1, fac / SAFE))
+            hnew = h / fac
+            if reject:
+                hnew = min(hnew, h)
+            reject = False
+            facold = max(err, FACOLD0)
+            n_acc += 1
+
+            # ------------------------------------------ events: scan the step
+            have_event = False
+            if ne > 0:
+                events(t_new, ynew, p, z, gnew)
+                _dense5(h, y, ynew, KY[0], KY[2], KY[3], KY[4], KY[5], KY[6], cont)
+                have_event = scan_step(events, t, h, t_new, y, cont, gcur, gnew, sgn, gsub,
+                                       tsub, yint, gtmp, p, z, crossed, ta_k, tb_k, ga_k, gb_k)
+            if not have_event:
+                if want_div:
+                    s_ = 0.0
+                    for j in range(7):
+                        s_ += BTAB[j] * trs[j]
+                    diag[DG_DIV] += h * s_
+                t = t_new
+                for i in range(n):
+                    y[i] = ynew[i]
+                    KY[0, i] = KY[6, i]
+                for c in range(k):
+                    for i in range(n):
+                        W[c, i] = Wnew[c, i]
+                        KW[0, c, i] = KW[6, c, i]
+                tr1 = trs[6]
+                if ne > 0:
+                    for q in range(ne):
+                        gcur[q] = gnew[q]
+                        if sgn[q] == 0:
+                            if gcur[q] > 0.0:
+                                sgn[q] = 1
+                            elif gcur[q] < 0.0:
+                                sgn[q] = -1
+                if t >= marks[i_mark]:
+                    _orthonormalise(W, Wz, scales, logs[i_mark])
+                    i_mark += 1
+                    for c in range(k):      # the vectors changed: their derivatives too
+                        for i in range(n):
+                            wtmp[i] = W[c, i]
+                        rhs_jvp(t, y, p, z, KY[0], 0.0, wtmp, Wz[c], KW[0, c])
+                    nfev += 1
+                h = hnew
+                continue
+
+            # ------------------------------------------ event: the earliest root
+            tol = ROOT_RTOL * max(1.0, abs(t_new))
+            t_star = t_new
+            a_star = t
+            first = -1
+            for q in range(ne):
+                if crossed[q]:
+                    ra, rb = bracket_root(events, q, sgn[q], t, h, ta_k[q], tb_k[q], ga_k[q],
+                                          gb_k[q], y, cont, yint, gtmp, p, z, tol)
+                    troot_a[q] = ra
+                    troot_b[q] = rb
+                    if first < 0 or rb < t_star:
+                        t_star = rb
+                        a_star = ra
+                        first = q
+            # the field on the old branch, at the left end of the bracket
+            _interp5((a_star - t) / h, y, cont, ya)
+            rhs(a_star, ya, p, z, fminus)
+            _interp5((t_star - t) / h, y, cont, yb)     # on the new side (for f+)
+            nfev += 1
+            if t_star > t:
+                retake = True       # recompute the step [t, t_star]: state and tangents
+                continue
+
+        # ---------------------------------------------- at the event (t_star): land there
+        if retake:
+            retake = False
+            if want_div:
+                s_ = 0.0
+                for j in range(7):
+                    s_ += BTAB[j] * trs[j]
+                diag[DG_DIV] += h * s_
+            t = t_star
+            for i in range(n):
+                y[i] = ynew[i]
+            for c in range(k):
+                for i in range(n):
+                    W[c, i] = Wnew[c, i]
+
+        # ---------------------------------------------- fire the events, saltation
+        for i in range(nz):
+            zold[i] = z[i]
+        stop = False
+        n_fired = 0
+        for q in range(ne):
+            if crossed[q] and troot_b[q] <= t_star + tol:
+                direction = -sgn[q]
+                sgn[q] = direction
+                if on_event(q, direction, t, y, p, z) == 1:
+                    stop = True
+                n_fired += 1
+                if direction > 0:
+                    diag[DG_UP] += 1
+        diag[DG_EVENTS] += n_fired
+        if n_fired > 1:
+            diag[DG_SIMUL] += n_fired - 1
+        # the field on the new branch: at the bracket's right end on the dense output, which
+        # is on the new side by construction (the retaken state may miss it by round-off)
+        if first >= 0:
+            rhs(t, yb, p, z, fplus)
+        else:
+            rhs(t, y, p, z, fplus)
+        nfev += 1
+        if first >= 0:
+            _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
+                       crossed, troot_b, t_star + tol, sgn, diag, gtmp, gd, unit, wtmp, zcopy,
+                       zdz, zzero)
+        # restart: derivatives at the event point with the new discrete state
+        tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div,
+                          trace_tmp, unit)
+        nfev += 1
+        events(t, y, p, z, gcur)
+        for q in range(ne):
+            if sgn[q] == 0:
+                if gcur[q] > 0.0:
+                    sgn[q] = 1
+                elif gcur[q] < 0.0:
+                    sgn[q] = -1
+        if t >= marks[i_mark]:
+            _orthonormalise(W, Wz, scales, logs[i_mark])
+            i_mark += 1
+            tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div,
+                              trace_tmp, unit)
+        if stop:
+            status = 1
+            break
+        h = hnew
+
+    stats[0] = n_steps
+    stats[1] = n_acc
+    stats[2] = n_rej
+    stats[3] = nfev
+    stats[4] = int(diag[DG_EVENTS])
+    return status, t, y, i_mark, stats, hnew
