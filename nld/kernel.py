@@ -79,7 +79,11 @@ def drop_stale_numba_cache(source: Path) -> int:
     newest = max(f.stat().st_mtime for f in kernel_dependencies())
     n = 0
     for f in (source.parent / "__pycache__").glob(f"{source.stem}.*.nb[ic]"):
-        if f.stat().st_mtime < newest:
+        try:
+            stale = f.stat().st_mtime < newest
+        except FileNotFoundError:       # another process (a test worker) removed it
+            continue
+        if stale:
             f.unlink(missing_ok=True)
             n += 1
     return n
