@@ -218,27 +218,26 @@ def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
 
 
 @njit(cache=False, inline='always')
-def _locate(events, k, s, t, h, ta, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p, z, tol):
-    """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t + h],
-    within the sub-interval [ta, t_new] in which g_k changed sign (``scan_interior``).
+def _locate(events, k, s, t, h, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p, z, tol):
+    """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t_new].
 
     ``s`` is the tracked sign of g_k (the side it is on), gr = g_k(t_new) is on the other
     side or 0. Returns the bracket end on the new side, i.e. at most ``tol`` after the root.
 
-    If gl = g_k(ta) is not strictly on side s (just after an event at ta, g_k(ta) is zero up
+    If gl = g_k(t) is not strictly on side s (just after an event at t, g_k(t) is zero up
     to round-off and may lie on either side), the left end is moved to the first of
-    ta + tol*4^j (j = 0, 1, ...) where g_k is on side s; if there is none, the crossing is
-    "now" and ta is returned."""
+    t + tol*4^j (j = 0, 1, ...) where g_k is on side s; if there is none, the crossing is
+    "now" and t is returned."""
     if gr == 0.0:
         return t_new
-    a = ta
+    a = t
     fa = gl
     if gl * s <= 0.0:
         d = tol
         while True:
-            a = ta + d
+            a = t + d
             if a >= t_new:
-                return ta
+                return t
             _interp((a - t) / h, y, r2, r3, r4, r5, yint)
             events(a, yint, p, z, gtmp)
             fa = gtmp[k]
@@ -272,75 +271,6 @@ def _locate(events, k, s, t, h, ta, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp
                 fb *= 0.5
             side = 1
     return b
-
-
-N_SUB = 4       # every accepted step is scanned for sign changes at 3 interior points
-
-
-@njit(cache=False, inline='always')
-def scan_interior(events, t, h, y, r2, r3, r4, r5, yint, gtmp, gcur, gnew, sgn, crossed,
-                  ta_k, tb_k, ga_k, gb_k, p, z):
-    """Find, for every event function, the first of N_SUB sub-intervals of the step at whose
-    right end g_k has left its tracked side sgn[k] (dense output at the interior points): a
-    contact lost and regained within one step has the same sign at both ends. Fills crossed
-    and the sub-brackets; returns whether any function crossed."""
-    ne = gcur.shape[0]
-    for k in range(ne):
-        crossed[k] = False
-        ta_k[k] = t
-        ga_k[k] = gcur[k]
-    anyc = False
-    for j in range(1, N_SUB + 1):
-        if j < N_SUB:
-            tj = t + (j / N_SUB) * h
-            _interp(j / N_SUB, y, r2, r3, r4, r5, yint)
-            events(tj, yint, p, z, gtmp)
-        else:
-            tj = t + h
-            for k in range(ne):
-                gtmp[k] = gnew[k]
-        for k in range(ne):
-            if crossed[k] or sgn[k] == 0:
-                continue
-            if gtmp[k] * sgn[k] <= 0.0:
-                crossed[k] = True
-                tb_k[k] = tj
-                gb_k[k] = gtmp[k]
-                anyc = True
-            else:
-                ta_k[k] = tj
-                ga_k[k] = gtmp[k]
-    if anyc:
-        _refine(events, t, h, y, r2, r3, r4, r5, yint, gtmp, sgn, crossed, ta_k, tb_k, ga_k,
-                gb_k, p, z)
-    return anyc
-
-
-N_REFINE = 16   # a sub-interval with a sign change is sampled again at 15 points
-
-
-@njit(cache=False, inline='always')
-def _refine(events, t, h, y, r2, r3, r4, r5, yint, gtmp, sgn, crossed, ta_k, tb_k, ga_k, gb_k,
-            p, z):
-    """Narrow each crossed sub-interval to the first of N_REFINE parts where the sign changed,
-    so that two roots closer than a quarter step (a contact lost and regained) are told apart
-    down to 1/64 of the step."""
-    ne = gtmp.shape[0]
-    for k in range(ne):
-        if not crossed[k]:
-            continue
-        a = ta_k[k]
-        dt = (tb_k[k] - a) / N_REFINE
-        for j in range(1, N_REFINE):
-            tj = a + j * dt
-            _interp((tj - t) / h, y, r2, r3, r4, r5, yint)
-            events(tj, yint, p, z, gtmp)
-            if gtmp[k] * sgn[k] <= 0.0:
-                tb_k[k] = tj
-                gb_k[k] = gtmp[k]
-                break
-            ta_k[k] = tj
-            ga_k[k] = gtmp[k]
 
 
 @njit(cache=False, inline='always')
@@ -398,10 +328,6 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     sgn = np.zeros(ne, dtype=np.int64)      # tracked sign of g_k (0 = undetermined)
     troot = np.empty(ne)
     crossed = np.zeros(ne, dtype=np.bool_)
-    ta_k = np.empty(ne)
-    tb_k = np.empty(ne)
-    ga_k = np.empty(ne)
-    gb_k = np.empty(ne)
 
     for i in range(n):
         y[i] = y0[i]
@@ -506,16 +432,16 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
         # ------------------------------------------------ event detection
         have_event = False
-        dense_done = False
         if ne > 0:
             events(t_new, ynew, p, z, gnew)
-            _dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5)
-            dense_done = True
-            have_event = scan_interior(events, t, h, y, r2, r3, r4, r5, yint, gtmp, gcur, gnew,
-                                       sgn, crossed, ta_k, tb_k, ga_k, gb_k, p, z)
+            for k in range(ne):
+                crossed[k] = sgn[k] != 0 and gnew[k] * sgn[k] <= 0.0
+                if crossed[k]:
+                    have_event = True
 
         if not have_event:
             # dense output for t_eval in (t, t_new]
+            dense_done = False
             while i_out < n_eval and t_eval[i_out] <= t_new:
                 te = t_eval[i_out]
                 if te == t_new:
@@ -543,12 +469,13 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             continue
 
         # ------------------------------------------------ event location
+        _dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5)
         tol = ROOT_RTOL * max(1.0, abs(t_new))
         t_star = t_new
         for k in range(ne):
             if crossed[k]:
-                troot[k] = _locate(events, k, sgn[k], t, h, ta_k[k], tb_k[k], ga_k[k], gb_k[k],
-                                   y, r2, r3, r4, r5, yint, gtmp, p, z, tol)
+                troot[k] = _locate(events, k, sgn[k], t, h, t_new, gcur[k], gnew[k], y, r2,
+                                   r3, r4, r5, yint, gtmp, p, z, tol)
                 if troot[k] < t_star:
                     t_star = troot[k]
 

@@ -169,22 +169,6 @@ def scan_step(events, t, h, t_new, y, cont, gcur, gnew, sgn, gsub, tsub, yint, g
                 gb_k[k] = gsub[j, k]
                 anyc = True
                 break
-    if anyc:      # narrow to 1/64 of the step: two roots closer than a quarter step
-        for k in range(ne):
-            if not crossed[k]:
-                continue
-            a = ta_k[k]
-            dt = (tb_k[k] - a) / 16.0
-            for j in range(1, 16):
-                tj = a + j * dt
-                _interp5((tj - t) / h, y, cont, yint)
-                events(tj, yint, p, z, gtmp)
-                if gtmp[k] * sgn[k] <= 0.0:
-                    tb_k[k] = tj
-                    gb_k[k] = gtmp[k]
-                    break
-                ta_k[k] = tj
-                ga_k[k] = gtmp[k]
     return anyc
 
 
@@ -634,9 +618,14 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
         diag[DG_EVENTS] += n_fired
         if n_fired > 1:
             diag[DG_SIMUL] += n_fired - 1
-        # the field on the new branch: at the bracket's right end on the dense output, which
-        # is on the new side by construction (the retaken state may miss it by round-off)
+        # the field on the new branch: at the landed state when it is on the new side, else
+        # (round-off put it on the old side) at the bracket's right end on the straddling
+        # step's dense output, which is on the new side by construction
+        use_b = False
         if first >= 0:
+            events(t, y, p, z, gtmp)
+            use_b = gtmp[first] * sgn[first] < 0.0
+        if use_b:
             rhs(t, yb, p, z, fplus)
         else:
             rhs(t, y, p, z, fplus)
