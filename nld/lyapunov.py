@@ -428,8 +428,8 @@ def _cross_events(system, t, y_old, y_new, z):
 # ---------------------------------------------------------------- Benettin
 def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=None, d0=None,
                       rtol=None, seed: int = 0, checks: int | None = None,
-                      max_growth: float | None = None, n_blocks: int | None = None
-                      ) -> LyapunovResult:
+                      max_growth: float | None = None, n_blocks: int | None = None,
+                      progress=None) -> LyapunovResult:
     """Largest Lyapunov exponent by the two-trajectory method of Benettin et al. (1980).
 
     system: any ``nld.systems`` system (ContinuousSystem, SceneSystem, DiscreteMap).
@@ -497,7 +497,12 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
         yp, zp = y + d0 * sc * u, z.copy()
         rates = np.empty(n_int)
         n_renorm = 0
+        base = system.period if system.period is not None else 1.0
+        bar = _progress_bar(n_int * T / base, f"lyapunov (benettin) {system.name}",
+                            "rev" if getattr(system, "period_name", "") == "revolution" else
+                            "periods", progress)
         for i in range(n_int):
+            bar.update(T / base)
             t0 = t_start + i * T
             acc = 0.0
             for c in range(checks):
@@ -518,6 +523,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
                     yp = yp_new
                     n_renorm += 1
             rates[i] = acc / T
+        bar.close()
         settings = dict(estimator="benettin", transient=transient, total=n_int * T,
                         renorm_interval=T, d0=d0, rtol=rtol, seed=seed, checks=checks, max_growth=max_growth,
                         renormalisations=n_renorm, n_blocks=n_blocks, norm="scaled",
@@ -642,16 +648,9 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
 
 # ---------------------------------------------------------------- tangent dynamics
 def _progress_bar(total: float, desc: str, unit: str, enabled):
-    """A tqdm bar on stderr (enabled None: only when stderr is a terminal)."""
-    import sys
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False,
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} {unit} "
-                           "[{elapsed}<{remaining}, {rate_fmt}]")
+    """The progress bar of nld.progress (stderr; None: automatic, as the command line set it)."""
+    from .progress import progress_bar
+    return progress_bar(total=total, unit=unit, desc=desc, enabled=enabled, delay=2.0)
 
 
 def _advance_bounded(system, y, z, t0, t1, rtol):
@@ -798,8 +797,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
             logs.append(run.logs)
             stats += run.stats
             done += run.logs.shape[0]
-            if bar is not None:
-                bar.update(run.logs.shape[0] * T / base)
+            bar.update(run.logs.shape[0] * T / base)
             if run.status == 1:
                 break
             if target_uncertainty is not None and done >= n_target and n_target < n_max:
@@ -811,8 +809,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
                 else:
                     n_target = min(n_max, n_target + max(1, n_int // 4))
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
     L = np.concatenate(logs) if logs else np.zeros((0, k))
     if L.shape[0] < 2:
         raise InputError(f"{system.name}: the tangent run stopped after {L.shape[0]} intervals")
