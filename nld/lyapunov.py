@@ -230,6 +230,23 @@ def _uncertainty(se: float, spread: float) -> float:
     return max(COVERAGE_Z * se, spread)
 
 
+def _spectrum_result(system, rates, weights, n_blocks, method, settings) -> "SpectrumResult":
+    """A SpectrumResult from the local rates (n_intervals, k) of any spectrum estimator."""
+    k = rates.shape[1]
+    ex, se, sp, hist = np.empty(k), np.empty(k), np.empty(k), np.empty((rates.shape[0], k))
+    for j in range(k):
+        ex[j], hist[:, j], se[j], sp[j] = _stats(rates[:, j], weights, n_blocks)
+    tot, _, tse, tsp = _stats(rates.sum(axis=1), weights, n_blocks)
+    period = None if system.is_map else system.period
+    return SpectrumResult(
+        exponents=ex, per_revolution=None if period is None else ex * period, history=hist,
+        times=np.cumsum(weights), uncertainty=np.array([_uncertainty(a, b) for a, b in zip(se, sp)]),
+        block_se=se, history_spread=sp, total=tot, total_uncertainty=_uncertainty(tse, tsp),
+        units=_units(system), local_rates=rates, method=method, system=system.name,
+        period=period, settings=settings,
+        period_name=getattr(system, "period_name", "revolution"))
+
+
 def _units(system) -> str:
     return "1/iteration" if system.is_map else f"1/{system.time_unit}"
 
@@ -633,17 +650,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
         period = system.period
         method = "perturbation vectors (QR)"
     weights = np.full(n_int, T)
-    times = np.cumsum(weights)
-    ex, se, sp, hist = np.empty(k), np.empty(k), np.empty(k), np.empty((n_int, k))
-    for j in range(k):
-        ex[j], hist[:, j], se[j], sp[j] = _stats(rates[:, j], weights, n_blocks)
-    tot, _, tse, tsp = _stats(rates.sum(axis=1), weights, n_blocks)
-    return SpectrumResult(
-        exponents=ex, per_revolution=None if period is None else ex * period, history=hist,
-        times=times, uncertainty=np.array([_uncertainty(a, b) for a, b in zip(se, sp)]),
-        block_se=se, history_spread=sp, total=tot, total_uncertainty=_uncertainty(tse, tsp), units=_units(system), local_rates=rates, method=method,
-        system=system.name, period=period, settings=settings,
-        period_name=getattr(system, "period_name", "revolution"))
+    return _spectrum_result(system, rates, weights, n_blocks, method, settings)
 
 
 # ---------------------------------------------------------------- tangent dynamics
@@ -858,16 +865,9 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
                              difference=diff, agree=bool(diff <= b.uncertainty + res.uncertainty),
                              benettin_settings=b.settings)
         return res
-    ex, se, sp, hist = np.empty(k), np.empty(k), np.empty(k), np.empty((rates.shape[0], k))
-    for j in range(k):
-        ex[j], hist[:, j], se[j], sp[j] = _stats(rates[:, j], weights, n_blocks)
-    tot, _, tse, tsp = _stats(rates.sum(axis=1), weights, n_blocks)
-    return SpectrumResult(
-        exponents=ex, per_revolution=None if period is None else ex * period, history=hist,
-        times=times, uncertainty=np.array([_uncertainty(a, b) for a, b in zip(se, sp)]),
-        block_se=se, history_spread=sp, total=tot, total_uncertainty=_uncertainty(tse, tsp),
-        units=_units(system), local_rates=rates, method="tangent QR", system=system.name,
-        period=period, settings=settings, period_name=pname, diagnostics=dd)
+    res = _spectrum_result(system, rates, weights, n_blocks, "tangent QR", settings)
+    res.diagnostics = dd
+    return res
 
 
 @njit
