@@ -40,7 +40,7 @@ def test_table_files_provenance_and_verdicts(reference):
         want = ("chaotic" if r.exponent - r.uncertainty > 0 else
                 "regular" if r.exponent + r.uncertainty < 0 else "uncertain")
         assert r.verdict == want
-    # friction-free 5000 rpm is chaotic at both clearances (lambda ~ 10 per revolution)
+    # friction-free 5000 rpm is chaotic at both clearances (lambda ~ 5 per revolution)
     assert (df[df.y == 0.0].verdict == "chaotic").all()
     assert (df[df.y == 0.0].per_revolution > 3).all()
     # 4 section points: no 0-1 test, and the message says why

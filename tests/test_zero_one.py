@@ -118,7 +118,7 @@ def _section_and_exponent(overrides, transient):
 
 
 def test_scene_chaotic_series():
-    """Default slider-crank (5000 rpm, lambda ~ 10 per revolution): K ~ 1 and lambda1 > 0."""
+    """Default slider-crank (5000 rpm, lambda ~ 5 per revolution): K ~ 1 and lambda1 > 0."""
     x, lam = _section_and_exponent(None, 10)
     res = zero_one_test(x)
     assert np.ptp(x) > 0.3 * C                     # the section covers the clearance
