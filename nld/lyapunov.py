@@ -727,9 +727,10 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         return lyapunov_spectrum(system, k, transient=transient, total=total,
                                  renorm_interval=renorm_interval, seed=seed, n_blocks=n_blocks)
     n = system.n
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= n:
+        raise InputError(f"k = {k!r}: must be a whole number between 1 and the number of "
+                         f"states {n}")
     k = int(k)
-    if not 1 <= k <= n:
-        raise InputError(f"k = {k!r}: must be between 1 and the number of states {n}")
     base = system.period if system.period is not None else 1.0
     d = DEFAULTS["tangent"]
     if renorm_interval is None:
@@ -745,7 +746,8 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
             raise InputError(f"{nm} = {v!r}: must be a time >= 0")
     _check_positive("total", total)
     rtol = d["rtol"] if rtol is None else rtol
-    if not (isinstance(rtol, (int, float)) and 1e-14 <= rtol < 1):
+    if not (isinstance(rtol, (int, float, np.floating)) and not isinstance(rtol, bool)
+            and 1e-14 <= rtol < 1):
         raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
     if target_uncertainty is not None:
         if not (isinstance(target_uncertainty, (int, float, np.floating)) and

@@ -344,3 +344,46 @@ def test_event_location_finds_every_sign_change_in_a_step():
     assert n_ev == 5
     assert np.allclose(ev_t, sorted(roots0 + roots1), atol=1e-10)
     assert list(ev_k) == [0, 0, 0, 1, 1]
+
+
+# ---------------------------------------------------------------- API and command line
+def test_check_reports_both_estimators_and_their_agreement():
+    S = SceneSystem("slider_crank")
+    T = S.period
+    r = lyapunov_tangent(S, transient=10 * T, total=40 * T, check=True)
+    c = r.check
+    assert c["tangent"] == r.exponent and c["benettin_settings"]["estimator"] == "benettin"
+    assert c["difference"] == pytest.approx(abs(c["benettin"] - c["tangent"]))
+    assert c["agree"] == (c["difference"] <= c["benettin_uncertainty"] + c["tangent_uncertainty"])
+    assert c["agree"]                                 # chaotic, ~5 per revolution, both
+    assert r.settings["estimator"] == "tangent" and r.settings["rtol"] == 1e-10
+    assert r.diagnostics["onsets_per_period"] > 5
+
+
+@pytest.mark.parametrize("kw,words", [
+    (dict(k=0), ["k = 0", "between 1"]), (dict(k="2"), ["k = '2'"]), (dict(k=5), ["k = 5"]),
+    (dict(rtol=2.0), ["rtol = 2.0"]), (dict(total=-1.0), ["total"]),
+    (dict(target_uncertainty=1.5), ["target_uncertainty = 1.5"]),
+    (dict(target_uncertainty=0.05, total=10.0, max_total=5.0), ["max_total = 5.0"]),
+    (dict(align=-1.0), ["align = -1.0"])])
+def test_tangent_bad_input_names_the_argument(kw, words):
+    from nld.errors import InputError
+    with pytest.raises(InputError) as e:
+        lyapunov_tangent(lorenz(), **kw)
+    assert all(w in str(e.value) for w in words) and "\n" not in str(e.value)
+
+
+def test_cli_lyapunov_tangent_options(capsys):
+    from nld.cli import main
+    rc = main(["lyapunov", "slider_crank", "--transient", "5", "--revs", "10", "--k", "2",
+               "--quiet"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "lambda1 = " in out and "lambda2 = " in out and "per revolution" in out
+    assert "estimator tangent, rtol 1e-10" in out and "contact onsets per revolution" in out
+    rc = main(["lyapunov", "slider_crank", "--transient", "5", "--revs", "10", "--check",
+               "--quiet"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "check: tangent" in out and "benettin" in out
+    rc = main(["lyapunov", "slider_crank", "--estimator", "benettin", "--k", "2"])
+    cap = capsys.readouterr()
+    assert rc == 2 and "--estimator benettin" in cap.err and "Traceback" not in cap.err

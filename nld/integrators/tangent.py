@@ -247,6 +247,15 @@ BTAB = np.array([A71, 0.0, A73, A74, A75, A76, 0.0])
 ETAB = np.array([E1, 0.0, E3, E4, E5, E6, E7])
 
 
+@njit(cache=True, inline='always')
+def _div_step(h, trs):
+    """The step's integral of tr(df/dy) by the 5th-order weights (sum-rule diagnostic)."""
+    s = 0.0
+    for j in range(7):
+        s += BTAB[j] * trs[j]
+    return h * s
+
+
 @njit(cache=False, inline='always')
 def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
                crossed, troot_b, t_fire, sgn, diag, gtmp, gd, unit, wtmp, zcopy, zdz, zzero):
@@ -530,10 +539,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                                        tsub, yint, gtmp, p, z, crossed, ta_k, tb_k, ga_k, gb_k)
             if not have_event:
                 if want_div:
-                    s_ = 0.0
-                    for j in range(7):
-                        s_ += BTAB[j] * trs[j]
-                    diag[DG_DIV] += h * s_
+                    diag[DG_DIV] += _div_step(h, trs)
                 t = t_new
                 for i in range(n):
                     y[i] = ynew[i]
@@ -590,10 +596,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
         if retake:
             retake = False
             if want_div:
-                s_ = 0.0
-                for j in range(7):
-                    s_ += BTAB[j] * trs[j]
-                diag[DG_DIV] += h * s_
+                diag[DG_DIV] += _div_step(h, trs)
             t = t_star
             for i in range(n):
                 y[i] = ynew[i]
