@@ -4,7 +4,8 @@
 ``joints.B.clearance``, ``joints.B.friction.mu`` ...), a stroboscopic section
 (:func:`nld.poincare.stroboscopic`): ``transient_revs`` crank revolutions discarded, then ``revs``
 section points; each point also gets a period estimate (:func:`nld.poincare.period_of`) and,
-optionally, the largest Lyapunov exponent (``nld.lyapunov.lyapunov_benettin``).
+optionally, the largest Lyapunov exponent (``nld.lyapunov.largest_exponent``: the tangent
+estimator with saltation by default, the two-trajectory one on request).
 
 * Independent points (default) run in parallel: a local ``ProcessPoolExecutor`` (spawned
   workers, each warmed once by an initializer that loads the kernel from numba's disk cache;
@@ -58,7 +59,7 @@ DIRECTIONS = ("up", "down")
 # settings that must match for resume=True
 _SETTINGS = ("scene_parameters", "param", "values", "transient_revs", "revs", "observables",
              "rtol", "continuation", "up_down", "max_steps", "period_tol", "n_max", "lyapunov",
-             "lyapunov_revs", "lyapunov_rtol")
+             "lyapunov_revs", "lyapunov_rtol", "lyapunov_estimator")
 
 
 @dataclass
@@ -78,6 +79,7 @@ class _Spec:
     lyapunov_revs: int
     lyapunov_rtol: float | None
     out: str | None = None
+    lyapunov_estimator: str = "tangent"
     cache_dir: str | None = field(default=None)
 
 
@@ -161,7 +163,7 @@ def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None)
 def _lyapunov(spec: _Spec, scene, kern, sec):
     """(exponent 1/s, uncertainty 1/s, note) from the end of the section, or NaNs and a note."""
     try:
-        from .lyapunov import lyapunov_benettin
+        from .lyapunov import largest_exponent
         from .systems import SceneSystem
     except ImportError as e:
         return math.nan, math.nan, f"lyapunov skipped: nld.lyapunov not available ({e})"
@@ -169,8 +171,8 @@ def _lyapunov(spec: _Spec, scene, kern, sec):
         system = SceneSystem(scene, kernel=kern)
         system.y0 = np.array(sec.y_final, dtype=float)
         system.z0 = np.array(sec.z_final, dtype=float)
-        res = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
-                                rtol=spec.lyapunov_rtol)
+        res = largest_exponent(system, spec.lyapunov_estimator,
+                               total=spec.lyapunov_revs * sec.period, rtol=spec.lyapunov_rtol)
         return float(res.exponent), float(res.uncertainty), ""
     except Exception as e:        # noqa: BLE001
         return math.nan, math.nan, f"lyapunov failed: {type(e).__name__}: {' '.join(str(e).split())}"
@@ -339,7 +341,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
           lyapunov: bool = False, overrides=None, max_steps: int = 50_000_000,
           period_tol: float = 1e-6, n_max: int = 16, lyapunov_revs: int | None = None,
           lyapunov_rtol: float | None = None, batch_size: int | None = None,
-          progress=None, on_point=None) -> pd.DataFrame:
+          progress=None, on_point=None, lyapunov_estimator: str = "tangent") -> pd.DataFrame:
     """Bifurcation sweep of ``param`` over ``values`` (see the module docstring).
 
     scene: Scene, built-in name or TOML path; overrides: base ``--set`` values applied first.
@@ -352,9 +354,11 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     this process); dask: a ``distributed.Client`` or a scheduler address ("tcp://host:8786")
     instead of the local pool. batch_size: points per task (default ceil(points/(4 workers))).
     out: output directory (one parquet per point + provenance.json); resume: skip the points
-    whose file exists. lyapunov: also the largest exponent by ``nld.lyapunov.lyapunov_benettin``
-    over ``lyapunov_revs`` (default revs) revolutions from the end of the section (rtol
-    ``lyapunov_rtol``, default the lyapunov module's), skipped with a note in ``message`` when
+    whose file exists. lyapunov: also the largest exponent over ``lyapunov_revs`` (default revs)
+    revolutions from the end of the section (rtol ``lyapunov_rtol``, default the lyapunov
+    module's 1e-10) by ``lyapunov_estimator``: "tangent" (default,
+    ``nld.lyapunov.lyapunov_tangent``, saltation at every contact event) or "benettin"
+    (``nld.lyapunov.lyapunov_benettin``, two trajectories), skipped with a note in ``message`` when
     nld.lyapunov is not available. progress: a progress bar in points on stderr (None: when
     stderr is a terminal, True, False; see nld.progress); a callable is taken as ``on_point``.
     on_point: optional callable(done, total, record) called as each point finishes.
@@ -389,19 +393,25 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     if isinstance(observables, str):
         observables = [o.strip() for o in observables.split(",") if o.strip()]
     lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
+    from .lyapunov import ESTIMATORS
+    if lyapunov_estimator not in ESTIMATORS:
+        raise InputError(f"lyapunov_estimator = {lyapunov_estimator!r}: must be one of "
+                         f"{', '.join(ESTIMATORS)}")
     spec = _Spec(raw=raw, source=sc.source, param=param, transient_revs=transient_revs, revs=revs,
                  observables=list(observables) if observables is not None else None,
                  rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
                  n_max=int(min(n_max, max(1, revs // 2))), lyapunov=bool(lyapunov),
                  lyapunov_revs=int(lyapunov_revs),
                  lyapunov_rtol=None if lyapunov_rtol is None else float(lyapunov_rtol),
-                 out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"))
+                 out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"),
+                 lyapunov_estimator=lyapunov_estimator)
     settings = dict(scene=sc.name, scene_parameters=raw, param=param, values=values,
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
                     rtol=spec.rtol, continuation=bool(continuation), up_down=bool(up_down),
                     max_steps=spec.max_steps, period_tol=spec.period_tol, n_max=spec.n_max,
                     lyapunov=spec.lyapunov, lyapunov_revs=spec.lyapunov_revs,
-                    lyapunov_rtol=spec.lyapunov_rtol)
+                    lyapunov_rtol=spec.lyapunov_rtol,
+                    lyapunov_estimator=lyapunov_estimator if spec.lyapunov else None)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="bifurcation",
                 integrator="dopri5", **settings)
     done = {}
@@ -660,6 +670,9 @@ def add_arguments(subparsers):
     sp.add_argument("--resume", action="store_true", help="skip the points already in --out")
     sp.add_argument("--lyapunov", action="store_true",
                     help="also the largest Lyapunov exponent of every point (slower)")
+    sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
+                    help="estimator of --lyapunov: tangent dynamics with saltation (default) or "
+                         "two trajectories (benettin)")
     sp.set_defaults(func=cli_bifurcation)
     return sp
 
@@ -711,7 +724,8 @@ def cli_bifurcation(args) -> int:
                revs=args.revs, observables=args.observables, rtol=args.rtol,
                continuation=args.continuation, up_down=args.up_down, workers=args.workers,
                dask=args.dask, out=args.out, resume=args.resume, lyapunov=args.lyapunov,
-               overrides=args.overrides, progress=args.progress, on_point=on_point)
+               lyapunov_estimator=args.estimator, overrides=args.overrides,
+               progress=args.progress, on_point=on_point)
     pts = df.drop_duplicates(["direction", "index"])
     n_failed = int((pts["status"] != "ok").sum())
     print(f"wrote {len(pts)} points to {args.out} (read with nld.bifurcation.load_sweep)")

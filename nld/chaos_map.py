@@ -14,10 +14,13 @@ keys set together, e.g. the clearances of joints A and B) and runs:
 1. a stroboscopic section (:func:`nld.poincare.stroboscopic`): ``transient_revs`` crank
    revolutions discarded, then ``revs`` section points of ``observable`` (default: ``<J>.ex`` of
    the first clearance joint), at ``rtol``;
-2. the largest Lyapunov exponent by :func:`nld.lyapunov.lyapunov_benettin` from the end of the
-   section (its state lies at a multiple of the crank period, so the trajectory is continued) over
-   ``lyapunov_revs`` (default ``revs``) revolutions, at ``lyapunov_rtol`` (default ``rtol``) with
-   separation ``d0`` (default the Lyapunov module's 1e-5, scaled norm) and ``seed``;
+2. the largest Lyapunov exponent from the end of the section (its state lies at a multiple of
+   the crank period, so the trajectory is continued) over ``lyapunov_revs`` (default ``revs``)
+   revolutions, at ``lyapunov_rtol`` (default ``rtol``), by ``estimator``: "tangent" (default,
+   :func:`nld.lyapunov.lyapunov_tangent`: tangent dynamics with saltation matrices at every
+   contact event, 2 revolutions of alignment first) or "benettin"
+   (:func:`nld.lyapunov.lyapunov_benettin`, two trajectories with separation ``d0``, default the
+   Lyapunov module's 1e-4 in the scaled norm); ``seed`` sets the initial direction;
 3. the 0-1 test for chaos (:func:`nld.zero_one.zero_one_test`) of the section series: a cheap
    second opinion from the points already computed (no extra integration). It needs ``revs`` >=
    30 (else K is NaN with a note) and is rough below a few hundred points. A section that repeats
@@ -73,7 +76,7 @@ SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolut
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
 # settings checked on resume besides bifurcation's (nld.bifurcation._SETTINGS)
 _EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check",
-                   "lyapunov_integrator")
+                   "lyapunov_integrator", "estimator")
 # exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
 CHECK_FACTOR = 3.0
 
@@ -90,6 +93,7 @@ class _Job:
     zero_one: dict
     rtol_check: float | None = None
     lyapunov_method: str = "dopri5"
+    estimator: str = "tangent"
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -151,7 +155,7 @@ def _verdict(lam, unc, status, lam_check=math.nan, unc_check=math.nan) -> str:
 def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     """Run one cell; never raises for a bad value or a failed run (status 'failed')."""
     from .kernel import compile_scene
-    from .lyapunov import lyapunov_benettin
+    from .lyapunov import largest_exponent
     from .poincare import default_observables, period_of, section_scales, stroboscopic
     from .systems import SceneSystem
     from .zero_one import zero_one_test
@@ -196,13 +200,13 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
         system = SceneSystem(scene, kernel=kern, method=job.lyapunov_method)
         system.y0 = np.array(sec.y_final, dtype=float)
         system.z0 = np.array(sec.z_final, dtype=float)
-        res = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
-                                rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
+        res = largest_exponent(system, job.estimator, total=spec.lyapunov_revs * sec.period,
+                               rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
         lam, unc = float(res.exponent), float(res.uncertainty)
         per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
         if job.rtol_check is not None:      # the same exponent at a second tolerance
-            chk = lyapunov_benettin(system, transient=0.0, total=spec.lyapunov_revs * sec.period,
-                                    rtol=job.rtol_check, d0=job.d0, seed=job.seed)
+            chk = largest_exponent(system, job.estimator, total=spec.lyapunov_revs * sec.period,
+                                   rtol=job.rtol_check, d0=job.d0, seed=job.seed)
             lam_c, unc_c = float(chk.exponent), float(chk.uncertainty)
             per_rev_c = float(chk.per_revolution)
             unc_rev_c = float(chk.uncertainty_per_revolution)
@@ -283,7 +287,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
               zero_one: dict | None = None, period_tol: float = 1e-6,
               max_steps: int = 50_000_000, batch_size: int | None = None,
               progress=None, rtol_check: float | None = None,
-              lyapunov_method: str = "dopri5", on_point=None) -> pd.DataFrame:
+              lyapunov_method: str = "dopri5", estimator: str = "tangent",
+              on_point=None) -> pd.DataFrame:
     """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
 
     scene: Scene, built-in name or TOML path; base_overrides: ``--set`` values applied first.
@@ -294,13 +299,15 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     slider-crank at 50 rad/s with restitution 0.5 is period 1 with lambda = -0.35 +- 0.25 per
     revolution at 1e-10, but wanders over the clearance with lambda = +3.1 +- 0.6 at 1e-9 and
     +3.9 +- 1.5 at 1e-8, K ~ 1: the integration error decides the attractor there).
-    lyapunov_revs (default revs), lyapunov_rtol (default rtol), d0 (default 1e-5, scaled norm),
-    seed: the exponent (:func:`nld.lyapunov.lyapunov_benettin`), from the end of the section.
+    lyapunov_revs (default revs), lyapunov_rtol (default rtol), seed: the exponent, from the end
+    of the section, by ``estimator`` "tangent" (default, :func:`nld.lyapunov.lyapunov_tangent`)
+    or "benettin" (:func:`nld.lyapunov.lyapunov_benettin` with separation d0, default 1e-4 in
+    the scaled norm; d0 is refused with the tangent estimator).
     rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
     from the same state; the cell is "uncertain" unless both agree (module docstring, step 4).
     It doubles the exponent's cost.
-    lyapunov_method: the integrator of both trajectories of the exponent (and of its check):
-    "dopri5" (default), "dop853" (stops with a message where its stiffness detection fires) or
+    lyapunov_method: the integrator of the exponent (and of its check): "dopri5" (default; the
+    only one of the tangent estimator); with estimator="benettin" also "dop853" (stops with a message where its stiffness detection fires) or
     "rodas" (Rodas4, experimental: tried on cells whose journal stays in stiff damped contact, it
     did not cure their tolerance-dependent exponent, is 10-100 times slower with its
     finite-difference Jacobian, and gave a wrong positive exponent on a period-1 orbit at rtol
@@ -344,6 +351,15 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     zero_one = dict(zero_one or {})
     from .systems import _check_system_method
     lyapunov_method = _check_system_method(lyapunov_method, "lyapunov_method")
+    from .lyapunov import ESTIMATORS
+    if estimator not in ESTIMATORS:
+        raise InputError(f"estimator = {estimator!r}: must be one of {', '.join(ESTIMATORS)}")
+    if estimator == "tangent" and lyapunov_method != "dopri5":
+        raise InputError(f"lyapunov_method = {lyapunov_method!r}: the tangent estimator runs on "
+                         "dopri5 only; use estimator='benettin' for another integrator")
+    if estimator == "tangent" and d0 is not None:
+        raise InputError(f"d0 = {d0!r}: a separation of the two-trajectory estimator; the "
+                         "tangent estimator has none (use estimator='benettin')")
     if rtol_check is not None and not (isinstance(rtol_check, (int, float))
                                        and 1e-14 <= rtol_check < 1):
         raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
@@ -353,22 +369,25 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
                       n_max=int(min(16, max(1, revs // 2))), lyapunov=True,
                       lyapunov_revs=int(lyapunov_revs),
                       lyapunov_rtol=float(rtol if lyapunov_rtol is None else lyapunov_rtol),
-                      out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"))
+                      out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"),
+                      lyapunov_estimator=estimator)
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
                d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
                rtol_check=None if rtol_check is None else float(rtol_check),
-               lyapunov_method=lyapunov_method)
+               lyapunov_method=lyapunov_method, estimator=estimator)
     settings = dict(scene=sc.name, scene_parameters=raw, param=[keys_x, keys_y], values=[vx, vy],
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
                     rtol=spec.rtol, continuation=False, up_down=False, max_steps=spec.max_steps,
                     period_tol=spec.period_tol, n_max=spec.n_max, lyapunov=True,
                     lyapunov_revs=spec.lyapunov_revs, lyapunov_rtol=spec.lyapunov_rtol,
                     d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one,
-                    rtol_check=job.rtol_check, lyapunov_integrator=lyapunov_method)
+                    rtol_check=job.rtol_check, lyapunov_integrator=lyapunov_method,
+                    estimator=estimator, lyapunov_estimator=estimator)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
                 integrator=f"dopri5 (sections), {lyapunov_method} (exponents)",
                 base_overrides=_plain_overrides(base_overrides),
-                lyapunov_method="benettin (nld.lyapunov.lyapunov_benettin)",
+                lyapunov_method=(f"{estimator} (nld.lyapunov."
+                                 f"{'lyapunov_tangent' if estimator == 'tangent' else 'lyapunov_benettin'})"),
                 zero_one_method="Gottwald-Melbourne 2009 modified correlation (nld.zero_one)",
                 **settings)
     cells = [(iy * len(vx) + ix, ix, iy, vx[ix], vy[iy]) for iy in range(len(vy))
@@ -449,7 +468,8 @@ def _check_extra(outp: Path, prov: dict) -> None:
         return
     for k in _EXTRA_SETTINGS:
         new = json.loads(json.dumps(prov.get(k), default=_bif._json_default))
-        was = old.get(k, "dopri5" if k == "lyapunov_integrator" else None)   # maps before the option
+        # maps before the options: dopri5, two trajectories
+        was = old.get(k, {"lyapunov_integrator": "dopri5", "estimator": "benettin"}.get(k))
         if json.dumps(was, sort_keys=True) != json.dumps(new, sort_keys=True):
             raise InputError(f"out = {str(outp)!r} holds a different run ({k} differs): use another "
                              "directory, or the same settings to resume")
@@ -647,11 +667,15 @@ def add_arguments(subparsers):
     sp.add_argument("--rtol-check", type=_rtol_arg, default=None, metavar="R",
                     help="recompute each exponent at this second tolerance; cells where the two "
                          "disagree are 'uncertain' (default: no check)")
+    sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
+                    help="estimator of the exponent: tangent dynamics with saltation (default) "
+                         "or two trajectories (benettin)")
     sp.add_argument("--lyapunov-method", choices=("dopri5", "dop853", "rodas"), default="dopri5",
-                    help="integrator of the exponent's two trajectories (default dopri5; rodas "
-                         "is experimental and slow on contact scenes, see docs/lyapunov.md)")
+                    help="integrator of the exponent (default dopri5; dop853 and rodas only with "
+                         "--estimator benettin; rodas is experimental and slow on contact "
+                         "scenes, see docs/lyapunov.md)")
     sp.add_argument("--d0", type=_number_arg("--d0"), default=None, metavar="D0",
-                    help="initial separation, scaled norm (default 1e-5)")
+                    help="initial separation of --estimator benettin, scaled norm (default 1e-4)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
     sp.add_argument("--observable", default=None, metavar="COL",
                     help="section observable of the 0-1 test (default <first clearance joint>.ex)")
@@ -703,7 +727,7 @@ def cli_chaos_map(args) -> int:
                    transient_revs=args.transient_revs, revs=args.revs,
                    lyapunov_revs=args.lyapunov_revs, rtol=args.rtol,
                    lyapunov_rtol=args.lyapunov_rtol, rtol_check=args.rtol_check, d0=args.d0,
-                   lyapunov_method=args.lyapunov_method,
+                   lyapunov_method=args.lyapunov_method, estimator=args.estimator,
                    seed=args.seed,
                    observable=args.observable, workers=args.workers, dask=args.dask,
                    out=args.out, resume=args.resume, base_overrides=args.overrides,

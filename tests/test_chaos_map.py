@@ -89,8 +89,9 @@ def test_tolerance_check_on_the_former_integrator_exponent_cell(mu):
 
 
 def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
-    """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + Benettin from its end."""
-    from nld.lyapunov import lyapunov_benettin
+    """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + the tangent estimator
+    (the default) from its end."""
+    from nld.lyapunov import lyapunov_tangent
     from nld.poincare import stroboscopic
     from nld.systems import SceneSystem
     df, out = reference
@@ -99,7 +100,7 @@ def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
                        overrides=ov)
     s = SceneSystem(SCENE, ov)
     s.y0, s.z0 = sec.y_final.copy(), sec.z_final.copy()
-    lam = lyapunov_benettin(s, transient=0.0, total=4 * s.period, rtol=1e-8)
+    lam = lyapunov_tangent(s, transient=0.0, total=4 * s.period, rtol=1e-8)
     row = df[(df.ix == 1) & (df.iy == 1)].iloc[0]
     assert row.exponent == lam.exponent and row.uncertainty == lam.uncertainty
     pts = load_chaos_map(out, sections=True)
@@ -107,17 +108,20 @@ def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
 
 
 def test_the_exponent_integrator_reaches_the_cell_and_the_resume_check(reference, tmp_path):
-    """lyapunov_method="dop853": the cell's exponent is the DOP853 Benettin value from the end of
-    the (DOPRI5) section, not DOPRI5's (-26.66 against -119.97 per s, measured); provenance names
-    both. Resuming a map with another exponent integrator is refused; a map written before the
-    option (no lyapunov_integrator in its provenance) resumes as DOPRI5."""
+    """estimator="benettin", lyapunov_method="dop853": the cell's exponent is the DOP853
+    Benettin value from the end of the (DOPRI5) section, not DOPRI5's; provenance names both.
+    The tangent estimator refuses another integrator and a d0. Resuming a map with another
+    exponent integrator or estimator is refused; a map written before the options (no
+    lyapunov_integrator / estimator in its provenance) resumes as DOPRI5 and Benettin, so it is
+    refused by the tangent default."""
     import shutil
 
     from nld.bifurcation import PROVENANCE
     from nld.lyapunov import lyapunov_benettin
     from nld.poincare import stroboscopic
     from nld.systems import SceneSystem
-    df = chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, lyapunov_method="dop853", **KW)
+    df = chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, lyapunov_method="dop853",
+                   estimator="benettin", **KW)
     ov = [f"{PX}=5e-4", f"{PY}=0.1"]
     sec = stroboscopic(SCENE, transient_revs=2, revs=4, observables=["B.ex"], rtol=1e-8,
                        overrides=ov)
@@ -130,20 +134,35 @@ def test_the_exponent_integrator_reaches_the_cell_and_the_resume_check(reference
     assert row.status == "ok" and row.exponent == lam["dop853"] != lam["dopri5"]
     prov = df.attrs["provenance"]
     assert prov["lyapunov_integrator"] == "dop853" and "dop853 (exponents)" in prov["integrator"]
+    assert prov["estimator"] == "benettin" and "lyapunov_benettin" in prov["lyapunov_method"]
     with pytest.raises(InputError, match="lyapunov_method = .euler."):
         chaos_map(SCENE, PX, [5e-4], PY, [0.1], lyapunov_method="euler", **KW)
+    with pytest.raises(InputError, match="lyapunov_method = 'dop853': the tangent estimator"):
+        chaos_map(SCENE, PX, [5e-4], PY, [0.1], lyapunov_method="dop853", **KW)
+    with pytest.raises(InputError, match="d0 = 1e-05: .* tangent estimator has none"):
+        chaos_map(SCENE, PX, [5e-4], PY, [0.1], d0=1e-5, **KW)
+    with pytest.raises(InputError, match="estimator = 'qr'"):
+        chaos_map(SCENE, PX, [5e-4], PY, [0.1], estimator="qr", **KW)
     ref, out = reference
     old = tmp_path / "old"
     shutil.copytree(out, old)
     with pytest.raises(InputError, match="lyapunov_integrator differs"):
         chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=old, resume=True,
-                  lyapunov_method="rodas", **KW)
+                  lyapunov_method="rodas", estimator="benettin", **KW)
+    with pytest.raises(InputError, match="differs"):
+        chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=old, resume=True,
+                  estimator="benettin", **KW)
     p = json.loads((old / PROVENANCE).read_text())
     del p["lyapunov_integrator"]
     (old / PROVENANCE).write_text(json.dumps(p))
     again = chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=old, resume=True, **KW)
     assert again.attrs["provenance"]["cells_run"] == 0
     pd.testing.assert_frame_equal(again, ref)
+    p = json.loads((old / PROVENANCE).read_text())
+    del p["estimator"]
+    (old / PROVENANCE).write_text(json.dumps(p))
+    with pytest.raises(InputError, match="estimator differs"):
+        chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=old, resume=True, **KW)
 
 
 def test_killed_map_resumed_equals_uninterrupted(reference, tmp_path):
@@ -214,14 +233,15 @@ def test_plot_draws_the_onset_contour(reference):
     ax = fig.axes[0]
     labels = ax.get_legend_handles_labels()[1]
     lam = df.set_index(["ix", "iy"]).per_revolution
-    assert lam[(1, 1)] < 0 < lam[(0, 1)]             # at mu = 0.1 the onset lies between the clearances
+    # at c = 0.2 mm the onset lies between mu = 0 and 0.1 (4 revolutions per cell: 3.7 and -0.6)
+    assert lam[(0, 1)] < 0 < lam[(0, 0)]
     assert "λ₁ = 0 (onset of chaos)" in labels
     cs = next(c for c in ax.collections if type(c).__name__ == "QuadContourSet")
     v = np.concatenate([p.vertices for p in cs.get_paths()])
-    # the contour crosses the row mu = 0.1 where lambda interpolates linearly to zero
-    x0 = VX[0] + (VX[1] - VX[0]) * lam[(0, 1)] / (lam[(0, 1)] - lam[(1, 1)])
-    on_row = v[np.isclose(v[:, 1], 0.1)]
-    assert len(on_row) == 1 and on_row[0, 0] == pytest.approx(x0, rel=1e-9)
+    # the contour crosses the column c = 0.2 mm where lambda interpolates linearly to zero
+    y0 = VY[0] + (VY[1] - VY[0]) * lam[(0, 0)] / (lam[(0, 0)] - lam[(0, 1)])
+    on_col = v[np.isclose(v[:, 0], VX[0])]
+    assert len(on_col) == 1 and on_col[0, 1] == pytest.approx(y0, rel=1e-9)
     assert ax.get_xlabel() == "joints.B.clearance (m)"
     plt.close(fig)
     # a map with a failed cell is drawn too (grey, hatched)
