@@ -143,16 +143,26 @@ def test_out_directory_guards(reference, tmp_path):
 
 
 def test_lyapunov_column(tmp_path):
-    """lyapunov=True fills the exponent (1/s) from nld.lyapunov, or says in message why not."""
-    df = sweep("slider_crank", "driver.speed", [523.6], transient_revs=2, revs=3, workers=1,
-               lyapunov=True, lyapunov_revs=3)
-    assert df.status.iloc[0] == "ok"
-    lam = df.lyapunov.iloc[0]
-    if np.isnan(lam):
-        assert "lyapunov" in df.message.iloc[0]
-    else:
-        assert np.isfinite(df.lyapunov_uncertainty.iloc[0])
-        assert (df.lyapunov == lam).all()
+    """lyapunov=True fills the exponent (1/s): the tangent estimator (default) from the end of the
+    point's section, the same number as calling it directly; "benettin" on request; a bad
+    estimator is refused."""
+    from nld.lyapunov import lyapunov_benettin, lyapunov_tangent
+    from nld.poincare import stroboscopic
+    from nld.systems import SceneSystem
+    kw = dict(transient_revs=2, revs=3, workers=1, lyapunov=True, lyapunov_revs=3, rtol=1e-8)
+    df = sweep("slider_crank", "driver.speed", [523.6], **kw)
+    assert df.status.iloc[0] == "ok" and (df.lyapunov == df.lyapunov.iloc[0]).all()
+    sec = stroboscopic("slider_crank", transient_revs=2, revs=3, rtol=1e-8,
+                       overrides=["driver.speed=523.6"])
+    s = SceneSystem("slider_crank", ["driver.speed=523.6"])
+    s.y0, s.z0 = sec.y_final.copy(), sec.z_final.copy()
+    lam = lyapunov_tangent(s, transient=0.0, total=3 * s.period)
+    assert df.lyapunov.iloc[0] == lam.exponent
+    assert df.lyapunov_uncertainty.iloc[0] == lam.uncertainty
+    db = sweep("slider_crank", "driver.speed", [523.6], lyapunov_estimator="benettin", **kw)
+    assert db.lyapunov.iloc[0] == lyapunov_benettin(s, transient=0.0, total=3 * s.period).exponent
+    with pytest.raises(InputError, match="lyapunov_estimator = 'qr'"):
+        sweep("slider_crank", "driver.speed", [523.6], lyapunov_estimator="qr", **kw)
 
 
 def test_bifurcation_diagram(reference):
