@@ -42,7 +42,7 @@ from .errors import InputError
 from .systems import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
 
 __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_benettin",
-           "largest_exponent", "describe", "ESTIMATORS",
+           "largest_exponent", "ESTIMATORS",
            "lyapunov_spectrum", "blocking_se",
            "lyapunov_nolds", "DEFAULTS"]
 
@@ -885,7 +885,7 @@ def largest_exponent(system, estimator: str = "tangent", *, total, transient=0.0
     (:func:`lyapunov_benettin`, two trajectories, separation ``d0``). total: the averaging time
     (s); transient: discarded first (s, default 0: a sweep starts from the end of a section,
     already on the attractor); rtol: default the estimator's (1e-10). The result's
-    ``settings`` hold everything used; :func:`describe` turns them into one line.
+    ``settings`` hold everything used; ``nld.report.estimator_text`` turns them into one line.
     """
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator = {estimator!r}: must be one of {', '.join(ESTIMATORS)}")
@@ -894,27 +894,6 @@ def largest_exponent(system, estimator: str = "tangent", *, total, transient=0.0
                                 progress=progress)
     return lyapunov_benettin(system, transient=transient, total=total, rtol=rtol, d0=d0,
                              seed=seed, progress=progress)
-
-
-def describe(res, period_name: str | None = None) -> str:
-    """One line naming the estimator, tolerance and averaging time of a result, e.g.
-    ``tangent (saltation), rtol 1e-10, averaged over 100 revolutions (+2 aligning)``."""
-    st = res.settings
-    est = st.get("estimator", res.method)
-    per = res.period
-    name = period_name or getattr(res, "period_name", "revolution")
-
-    def span(t):
-        if per:
-            return f"{t / per:.4g} {name}s"
-        return f"{t:.4g} {res.units.split('/')[-1] if '/' in res.units else 's'}"
-    s = f"{est}{' (saltation)' if est == 'tangent' else ''}, rtol {st.get('rtol', float('nan')):g}"
-    s += f", averaged over {span(st.get('total', float('nan')))}"
-    if est == "tangent" and st.get("align"):
-        s += f" (+{span(st['align'])} aligning)"
-    if est == "benettin" and st.get("d0") is not None:
-        s += f", d0 {st['d0']:g}"
-    return s
 
 
 @njit

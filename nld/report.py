@@ -69,6 +69,8 @@ def estimator_text(settings: dict | None, method: str | None = None, period: flo
         return f"{v:.3g} s"
     if st.get("transient") is not None:
         parts.append(f"transient {span(st['transient'])}")
+    if st.get("align"):
+        parts.append(f"tangent vectors aligned over {span(st['align'])}")
     if st.get("total") is not None:
         parts.append(f"averaged over {span(st['total'])}")
     if st.get("renorm_interval") is not None:

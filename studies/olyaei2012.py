@@ -6,8 +6,8 @@
 Scene ``slider_crank_olyaei``: the Flores slider-crank (0.5 mm radial clearance at the rod-slider joint
 B, Lankarani-Nikravesh contact, restitution 0.9, 5000 rpm) with Ambrosio's modified Coulomb friction
 (mu = 0.1). With :func:`nld.bifurcation.sweep` (stroboscopic section once per crank revolution, period
-detection, and the largest Lyapunov exponent by :func:`nld.lyapunov.lyapunov_benettin` from the end of
-each section):
+detection, and the largest Lyapunov exponent by :func:`nld.lyapunov.lyapunov_tangent` (tangent
+dynamics with saltation matrices at every contact event) from the end of each section):
 
 * bifurcation diagram and exponent against the crank speed (driver.speed, clearance 0.5 mm);
 * bifurcation diagram and exponent against the clearance (joints.B.clearance, 5000 rpm);
@@ -63,8 +63,17 @@ OBS = ["B.ex", "B.ey"]
 # period of a section: successive points agree to PERIOD_TOL_C of the clearance (nld.poincare.period_of
 # with scale = c); the integration and friction-regularisation floor is about 1e-5 c here
 PERIOD_TOL_C = 1e-4
-# tolerance check of the exponent: rtol values (with d0) at which lambda is recomputed
-TOL_CHECK = [(1e-8, None), (1e-10, None), (1e-11, 1e-4)]
+# tolerance check of the exponent: (estimator, rtol) at which lambda is recomputed; the two-trajectory
+# estimator (Benettin, d0 = 1e-4) is the independent check of the tangent one
+TOL_CHECK = [("tangent", 1e-8), ("tangent", 1e-10), ("tangent", 1e-11), ("benettin", 1e-10)]
+
+
+def _tc_key(est, rtol):
+    return f"{est} rtol={rtol:g}"
+
+
+def _tc_label(est, rtol):
+    return f"{'B ' if est == 'benettin' else ''}{rtol:g}"
 # sweep name -> (param key, label, plot scale, plot unit, log x)
 SWEEPS = {
     "speed": ("driver.speed", "crank speed", RPM, "rpm", False),
@@ -204,7 +213,7 @@ def pick_states(points: dict):
 
 def run_state(pt: dict, st: dict):
     """Longer stroboscopic section of one state and its exponent at the tighter tolerance."""
-    from nld.lyapunov import lyapunov_benettin
+    from nld.lyapunov import lyapunov_tangent
     from nld.poincare import period_of, stroboscopic
     from nld.systems import SceneSystem
     ov = _overrides(pt["sweep"], pt["value"])
@@ -214,8 +223,8 @@ def run_state(pt: dict, st: dict):
     system = SceneSystem(SCENE, ov)
     system.y0 = np.array(sec.y_final, float)
     system.z0 = np.array(sec.z_final, float)
-    lyap = lyapunov_benettin(system, transient=0.0, total=st["case_lyap_revs"] * sec.period,
-                             rtol=st["case_lyap_rtol"])
+    lyap = lyapunov_tangent(system, transient=0.0, total=st["case_lyap_revs"] * sec.period,
+                            rtol=st["case_lyap_rtol"])
     c = pt["value"] if pt["sweep"] == "clearance" else 0.5e-3
     p = period_of(sec.table[OBS], tol=PERIOD_TOL_C, scale=c, n_max=min(16, st["case_revs"] // 2))
     pts = sec.points[:, :2]
@@ -227,7 +236,7 @@ def run_state(pt: dict, st: dict):
 def tolerance_check(points: dict, st: dict) -> pd.DataFrame:
     """lambda of the largest-exponent point of each sweep recomputed at the TOL_CHECK tolerances, from
     the end of a fresh section (same transient and section length as the sweep)."""
-    from nld.lyapunov import lyapunov_benettin
+    from nld.lyapunov import largest_exponent
     from nld.poincare import stroboscopic
     from nld.systems import SceneSystem
     rows = []
@@ -241,12 +250,12 @@ def tolerance_check(points: dict, st: dict) -> pd.DataFrame:
                            overrides=ov, rtol=st["rtol"])
         row = {"sweep": name, "value": float(pt["value"]), "sweep_lambda_per_rev": float(pt["lambda_per_rev"]),
                "sweep_unc_per_rev": float(pt["lambda_unc_per_rev"])}
-        for rtol, d0 in TOL_CHECK:
+        for est, rtol in TOL_CHECK:
             system = SceneSystem(SCENE, ov)
             system.y0 = np.array(sec.y_final, float)
             system.z0 = np.array(sec.z_final, float)
-            r = lyapunov_benettin(system, transient=0.0, total=st["lyap_revs"] * sec.period, rtol=rtol, d0=d0)
-            key = f"rtol={rtol:g}" + (f",d0={d0:g}" if d0 else "")
+            r = largest_exponent(system, est, total=st["lyap_revs"] * sec.period, rtol=rtol)
+            key = _tc_key(est, rtol)
             row[f"lambda {key}"] = float(r.per_revolution)
             row[f"unc {key}"] = float(r.uncertainty_per_revolution)
         rows.append(row)
@@ -315,8 +324,8 @@ def _fig_sweep(rep, name, sw, pts, st):
                              f"{st['revs']} stroboscopic section points (t = kT) of the journal centre "
                              "relative to the bearing centre (top: e_x, middle: e_y" + (", divided by the clearance c" if name == "clearance" else "") + "; a single point per "
                              "value = period 1, a vertical spread = a non-periodic motion). Bottom: the largest "
-                             f"Lyapunov exponent (Benettin, {st['lyap_revs']} revolutions from the end of the "
-                             f"section, rtol {st['lyap_rtol']:g}) per crank revolution ± its uncertainty; red: "
+                             f"Lyapunov exponent (tangent dynamics with saltation, {st['lyap_revs']} revolutions "
+                             f"from the end of the section, rtol {st['lyap_rtol']:g}) per crank revolution ± its uncertainty; red: "
                              "λ1 − uncertainty > 0 (chaotic), blue: λ1 + uncertainty < 0 (regular), grey: "
                              "undecided; 'Pn': the section repeats with period n to 1e-4 of the clearance."))
 
@@ -352,7 +361,7 @@ def _fig_states(rep, states):
                                        f"{s['lyap'].uncertainty_per_revolution:.2g} per revolution")
     rep.figure(fig, caption=("Top: stroboscopic Poincaré maps of the journal centre (relative to the bearing "
                              "centre), after the transient; dotted: the clearance circle. Bottom: running "
-                             "Benettin estimate of λ1 from the end of the section (band: final ± "
+                             "tangent estimate of λ1 from the end of the section (band: final ± "
                              "uncertainty). The regular state contracts (λ1 < 0) onto a point or a few "
                              "points, the chaotic one spreads over a strange set."))
     return True
@@ -445,9 +454,11 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         f"log-spaced), the friction coefficient ({len(fr)} values), and the crank speed again at μ = 0.05 "
         f"({len(sl)} values; the friction sweep puts this value on the chaotic side). Each point starts from the assembled "
         f"ideal state, runs {st['transient_revs']} transient revolutions and {st['revs']} section points at "
-        f"rtol {st['rtol']:g} (error control scaled by the clearance), then λ1 by Benettin's method over "
-        f"{st['lyap_revs']} revolutions at rtol {st['lyap_rtol']:g} (perturbation 1e-5 of the clearance "
-        "scales, renormalised up to 32 times a revolution). Verdict: chaotic if λ1 − uncertainty > 0, "
+        f"rtol {st['rtol']:g} (error control scaled by the clearance), then λ1 from the tangent dynamics "
+        f"(nld.lyapunov.lyapunov_tangent: the variational equations integrated with the trajectory, "
+        f"each contact onset and separation mapped by its saltation matrix, Gram-Schmidt 8 times a "
+        f"revolution, 2 revolutions of alignment) over {st['lyap_revs']} revolutions at rtol "
+        f"{st['lyap_rtol']:g}. Verdict: chaotic if λ1 − uncertainty > 0, "
         "regular if λ1 + uncertainty < 0 (the uncertainty is a block standard error plus the spread of the "
         "running estimate). Exponents are per crank revolution (natural log): a separation grows by e^λ1 "
         "each revolution.",
@@ -507,8 +518,8 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
     if tolcheck is not None and len(tolcheck):
         parts = []
         for _, r in tolcheck.iterrows():
-            vals = ", ".join(f"{_f(r[f'lambda rtol={rt:g}' + (f',d0={d0:g}' if d0 else '')])} (rtol {rt:g}"
-                             + (f", d0 {d0:g}" if d0 else "") + ")" for rt, d0 in TOL_CHECK)
+            vals = ", ".join(f"{_f(r[f'lambda {_tc_key(est, rt)}'])} ({est}, rtol {rt:g})"
+                             for est, rt in TOL_CHECK)
             parts.append(f"{r['sweep']} sweep at {_fmt_value(r['sweep'], r['value'])}: {vals}")
         found.append("- Tolerance check of the largest exponent of each sweep: " + "; ".join(parts) + ".")
     onset = ["Where chaos sets in (per sweep):", *_onset_lines(points)]
@@ -576,8 +587,9 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         "or other v0, v1 would change the boundaries.",
         "- Method. The paper integrates in absolute coordinates with constraint stabilisation (usual in "
         "this literature); nld uses minimal coordinates (the clearance cuts the only loop) and adaptive "
-        "Dormand-Prince with located contact events. λ1 here comes from two trajectories each under its "
-        "own error control, renormalised within the revolution; an exponent from a time series "
+        "Dormand-Prince with located contact events. λ1 here comes from the tangent (variational) "
+        "dynamics integrated in lock step with the trajectory, with a saltation matrix at every contact "
+        "event (docs/lyapunov.md); an exponent from a time series "
         "(Wolf/Rosenstein) or from a stroboscopic map would differ in value, not in sign, for a clear case.",
         f"- Finite runs. {st['transient_revs']} transient revolutions and {st['lyap_revs']}-revolution "
         "exponents: long transients (chaotic transients before a periodic attractor, or the reverse) "
@@ -589,12 +601,13 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         "about 1e-5 of the clearance from revolution to revolution (integration tolerance and the friction "
         "regularisation; a floor also seen on the four-bar, docs/analysis.md). The report therefore calls a "
         f"section periodic when its points repeat to {PERIOD_TOL_C:g} of the clearance (column period_c).",
-        "- Tolerance. The exponent must be computed at a tight tolerance: in continuous contact with friction "
-        "the difference of two trajectories each under its own error control is noisy, and at rtol 1e-8 "
-        "this noise alone gives λ1 of +1 to +3 per revolution at points whose section repeats to 1e-5 of the "
-        "clearance (found while preparing this study: 4750 rpm, +2.6 at rtol 1e-8, -0.5 at 1e-10). The "
-        f"sweeps therefore use rtol {st['lyap_rtol']:g} for the exponent, and the tolerance-check table "
-        "recomputes the largest exponent of each sweep at three tolerances.",
+        "- Tolerance and estimator. An earlier version of this study used two trajectories (Benettin) "
+        "whose perturbed copy kept the contact memory of the unperturbed one; in long contacts this "
+        "injected spurious growth at every renormalisation, and λ1 moved 10-100x with the tolerance "
+        "(issue 13). The tangent estimator has no separation to choose and maps every contact event "
+        f"exactly; the sweeps use it at rtol {st['lyap_rtol']:g}, and the tolerance-check table "
+        "recomputes the largest exponent of each sweep at three tolerances and with the (fixed) "
+        "two-trajectory estimator as an independent check.",
     ]
     return intro, found, onset + trends, why
 
@@ -716,7 +729,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         "Per point": f"{st['transient_revs']} transient + {st['revs']} section revolutions",
         "rtol": st["rtol"],
         "atol": "rtol x clearance scales",
-        "λ1 (sweeps)": f"Benettin, {st['lyap_revs']} rev, rtol {st['lyap_rtol']:g}",
+        "λ1 (sweeps)": f"tangent (saltation), {st['lyap_revs']} rev, rtol {st['lyap_rtol']:g}",
         "Showcase states": (f"{st['case_transient']} + {st['case_revs']} rev, λ1 over {st['case_lyap_revs']} rev "
                             f"at rtol {st['case_lyap_rtol']:g}"),
         "Workers": st["workers"],
@@ -751,17 +764,17 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         tc = tolcheck.copy()
         tc["value"] = [_fmt_value(n, v) for n, v in zip(tc["sweep"], tc["value"])]
         ren = {"sweep_lambda_per_rev": "λ1 (sweep)", "sweep_unc_per_rev": "± (sweep)"}
-        for rt, d0 in TOL_CHECK:
-            key = f"rtol={rt:g}" + (f",d0={d0:g}" if d0 else "")
-            ren[f"lambda {key}"] = f"λ1 {rt:g}" + ("*" if d0 else "")
-            ren[f"unc {key}"] = f"± {rt:g}" + ("*" if d0 else "")
+        for est, rt in TOL_CHECK:
+            key = _tc_key(est, rt)
+            ren[f"lambda {key}"] = f"λ1 {_tc_label(est, rt)}"
+            ren[f"unc {key}"] = f"± {_tc_label(est, rt)}"
         tc = tc.rename(columns=ren)
         rep.table("Tolerance check of the largest exponents", tc,
                   col_units={c: "1/rev" for c in tc.columns if c.startswith(("λ1", "±"))},
                   notes=["For the point with the largest λ1 of each sweep: λ1 per revolution recomputed from the "
-                         "end of a fresh section of the same length, with both trajectories integrated at the rtol "
-                         "given in the header (*: d0 = 1e-4, the initial separation in the scaled norm; otherwise the default "
-                         "1e-5). The sweeps use rtol "
+                         "end of a fresh section of the same length by the tangent estimator at the rtol given in "
+                         "the header, and (B) by the two-trajectory estimator (Benettin, d0 = 1e-4 in the scaled "
+                         "norm), an independent check. The sweeps use the tangent estimator at rtol "
                          f"{st['lyap_rtol']:g}. A sign that changes with the tolerance is a numerical artefact, not "
                          f"chaos. Stored in {STEM}_tolcheck.csv."],
                   float_format=lambda v: f"{v:.3g}")

@@ -7,7 +7,7 @@ Effect of the clearance size and of the friction coefficient on the regularity o
 * six cases (three clearances at the scene's friction mu = 0.01; three friction coefficients at the
   scene's clearance 0.25 mm): stroboscopic Poincare sections of the journal eccentricity (B.ex, B.ey)
   (:func:`nld.poincare.stroboscopic`), the largest Lyapunov exponent from the end of the section
-  (:func:`nld.lyapunov.lyapunov_benettin`), a sampled run continued from there for the contact-force
+  (:func:`nld.lyapunov.lyapunov_tangent`, tangent dynamics with saltation at every contact event), a sampled run continued from there for the contact-force
   spectrum (:func:`nld.spectrum.table_spectrum`) and the force peaks;
 * two bifurcation sweeps with the exponent at every point (:func:`nld.bifurcation.sweep`): in the
   clearance (mu = 0.01) and in the friction coefficient (c = 0.25 mm).
@@ -62,7 +62,7 @@ PERIOD_TOL = 1e-6          # section period: points repeat to PERIOD_TOL x clear
 
 def run_case(name, st):
     """Section, exponent and the continued sampled run of one case."""
-    from nld.lyapunov import lyapunov_benettin
+    from nld.lyapunov import lyapunov_tangent
     from nld.poincare import period_of, stroboscopic
     from nld.simulate import simulate
     from nld.spectrum import peaks, table_spectrum
@@ -77,7 +77,7 @@ def run_case(name, st):
     system = SceneSystem(SCENE, ov)
     system.y0 = np.array(sec.y_final, float)
     system.z0 = np.array(sec.z_final, float)
-    lyap = lyapunov_benettin(system, transient=0.0, total=st["lyap_revs"] * sec.period, rtol=st["rtol"])
+    lyap = lyapunov_tangent(system, transient=0.0, total=st["lyap_revs"] * sec.period, rtol=st["rtol"])
     # the same trajectory continued from the end of the section (t = 0 is a multiple of the period)
     run = simulate(SCENE, revs=st["spec_revs"], samples_per_rev=st["samples_per_rev"], rtol=st["rtol"],
                    overrides=ov, y0=sec.y_final, z0=sec.z_final)
@@ -206,7 +206,7 @@ def _fig_convergence(rep, res):
         fig, axes = rep.subplots(2, 3, squeeze=False, title="Convergence of the largest exponent")
         for ax, name in zip(axes.ravel(), CASES):
             exponent_convergence(res[name]["lyap"], per_revolution=True, ax=ax, title=name)
-    rep.figure(fig, caption="Running Benettin estimate of λ1 (per revolution) with the final value ± "
+    rep.figure(fig, caption="Running tangent-dynamics estimate of λ1 (per revolution) with the final value ± "
                             "its uncertainty (block standard error + spread of the last half).")
 
 
@@ -240,7 +240,7 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
         "and the friction coefficient varied at c = 0.25 mm.",
         f"Method ({mode_label}): each case is integrated from the ideal assembly over "
         f"{st['transient_revs']} crank revolutions (discarded), then {st['section_revs']} stroboscopic "
-        f"section points; λ1 (Benettin, two trajectories, scaled norm, d0 = 1e-5) over {st['lyap_revs']} "
+        f"section points; λ1 (tangent dynamics with saltation matrices at every contact event, scaled norm, 2 revolutions of alignment) over {st['lyap_revs']} "
         f"revolutions from the end of the section; then {st['spec_revs']} revolutions sampled "
         f"{st['samples_per_rev']} times per revolution for the force peaks and the spectrum. Sweeps: "
         f"{len(st['clearances'])} clearances and {len(st['frictions'])} friction coefficients, "

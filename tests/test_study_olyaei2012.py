@@ -121,6 +121,11 @@ def test_tolerance_check_covers_the_largest_exponents(quick_run):
         best = g.loc[g["lambda_per_rev"].idxmax()]
         assert r["value"] == pytest.approx(best["value"], rel=1e-12)
         assert r["sweep_lambda_per_rev"] == pytest.approx(best["lambda_per_rev"], rel=1e-12)
-        for rtol, d0 in study.TOL_CHECK:
-            key = f"rtol={rtol:g}" + (f",d0={d0:g}" if d0 else "")
+        assert {est for est, _ in study.TOL_CHECK} == {"tangent", "benettin"}
+        for est, rtol in study.TOL_CHECK:
+            key = f"{est} rtol={rtol:g}"
             assert np.isfinite(r[f"lambda {key}"]) and r[f"unc {key}"] >= 0
+        # the sweep's exponent is the tangent one at the sweep's tolerance, from the same kind of
+        # section: the check at that tolerance repeats it from a fresh section of the same length
+        key = f"tangent rtol={study.QUICK['lyap_rtol']:g}"
+        assert r[f"lambda {key}"] == pytest.approx(r["sweep_lambda_per_rev"], rel=1e-9)
