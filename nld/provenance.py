@@ -2,21 +2,30 @@
 from __future__ import annotations
 
 import functools
+import os
 import subprocess
 from pathlib import Path
 
 
 @functools.lru_cache(maxsize=1)
 def git_hash() -> str:
-    """Git commit of the nld source tree (with '+dirty' when it has uncommitted changes), or 'unknown'."""
+    """Git commit of the nld source tree (with '+dirty' when it has uncommitted changes), or 'unknown'.
+
+    A copy of the tree without its .git (a batch machine) may name its commit in the environment
+    variable NLD_GIT_HASH; it is then reported as '<hash> (NLD_GIT_HASH)'."""
     root = Path(__file__).resolve().parent.parent
     try:
         h = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
                            timeout=5).stdout.strip()
         if not h:
-            return "unknown"
+            return _from_env()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
                                capture_output=True, text=True, timeout=5).stdout.strip()
         return h + ("+dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
-        return "unknown"
+        return _from_env()
+
+
+def _from_env() -> str:
+    h = os.environ.get("NLD_GIT_HASH", "").strip()
+    return f"{h} (NLD_GIT_HASH)" if h else "unknown"

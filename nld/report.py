@@ -103,6 +103,23 @@ _TOP = 0.955                       # figure fraction below the page heading
 _MARGIN = 0.045
 
 
+def study_workers(default: int) -> int:
+    """Worker processes of a study's sweeps: ``default`` (what the committed reports used), or
+    the environment variable NLD_WORKERS (a whole number >= 1) to use a larger machine. The
+    numbers do not depend on it (nld.bifurcation: local and Dask sweeps agree point for point)."""
+    v = os.environ.get("NLD_WORKERS")
+    if not v:
+        return default
+    try:
+        n = int(v)
+    except ValueError:
+        n = 0
+    if n < 1:
+        from .errors import InputError
+        raise InputError(f"NLD_WORKERS = {v!r}: must be a whole number >= 1")
+    return n
+
+
 def source_date_epoch() -> int | None:
     """``SOURCE_DATE_EPOCH`` as an int, or None when unset or empty (ValueError if not an integer)."""
     v = os.environ.get("SOURCE_DATE_EPOCH", "").strip()

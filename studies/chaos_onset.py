@@ -317,11 +317,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     from nld import __version__
     from nld.io import save_table
     from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, source_date_epoch
+    from nld.report import Report, save_study_data, source_date_epoch, study_workers
 
     start = time.perf_counter()
     st_all = QUICK if quick else FULL
-    workers = 1 if quick else 2
+    workers = study_workers(1 if quick else 2)
     mode = "quick" if quick else "full"
     mode_label = "QUICK MODE: 3 x 3 (slider-crank) and 2 x 2 (excavator) cells, very short runs" if quick else "full mode"
     out_dir = Path(out_dir)

@@ -650,11 +650,12 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     from nld import __version__
     from nld.io import save_table
     from nld.provenance import git_hash
-    from nld.report import Report, save_study_data
+    from nld.report import Report, save_study_data, study_workers
     from nld.scene import load_scene, scene_to_dict
 
     start = time.perf_counter()
     st = dict(SMOKE if smoke else QUICK if quick else FULL)
+    st["workers"] = study_workers(st["workers"])
     mode = "smoke" if smoke else "quick" if quick else "full"
     mode_label = {"full": "full mode",
                   "quick": f"QUICK MODE: {st['transient_revs']} + {st['revs']} revolutions per point, rtol "

@@ -338,12 +338,13 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     from nld import __version__
     from nld.io import save_table
     from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, source_date_epoch
+    from nld.report import Report, save_study_data, source_date_epoch, study_workers
     from nld.scene import load_scene, scene_to_dict
     from nld.simulate import crank_period
 
     start = time.perf_counter()
     st = dict(QUICK if quick else FULL)
+    st["workers"] = study_workers(st["workers"])
     mode = "quick" if quick else "full"
     mode_label = "QUICK MODE: short transients and averages" if quick else "full mode"
     out_dir = Path(out_dir)
