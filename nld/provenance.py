@@ -11,8 +11,11 @@ from pathlib import Path
 def git_hash() -> str:
     """Git commit of the nld source tree (with '+dirty' when it has uncommitted changes), or 'unknown'.
 
-    A copy of the tree without its .git (a batch machine) may name its commit in the environment
-    variable NLD_GIT_HASH; it is then reported as '<hash> (NLD_GIT_HASH)'."""
+    A copy of the tree on a batch machine may name its commit in the environment variable
+    NLD_GIT_HASH; when set it takes precedence (such a copy's own .git, if any, may be stale) and is
+    reported as '<hash> (NLD_GIT_HASH)'."""
+    if os.environ.get("NLD_GIT_HASH", "").strip():
+        return _from_env()
     root = Path(__file__).resolve().parent.parent
     try:
         h = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
