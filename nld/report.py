@@ -77,6 +77,8 @@ def estimator_text(settings: dict | None, method: str | None = None, period: flo
         parts.append(f"renormalised every {span(st['renorm_interval'])}")
     if st.get("d0") is not None:
         parts.append(f"d0 {float(st['d0']):g}")
+    if st.get("tangent_err") is False:
+        parts.append("state-only error control")
     if st.get("n_blocks") is not None:
         parts.append(f"{st['n_blocks']} blocks for the uncertainty")
     return "; ".join(parts)

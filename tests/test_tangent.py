@@ -387,3 +387,10 @@ def test_cli_lyapunov_tangent_options(capsys):
     rc = main(["lyapunov", "slider_crank", "--estimator", "benettin", "--k", "2"])
     cap = capsys.readouterr()
     assert rc == 2 and "--estimator benettin" in cap.err and "Traceback" not in cap.err
+    rc = main(["lyapunov", "slider_crank", "--transient", "5", "--revs", "10", "--state-error-only",
+               "--quiet"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "state-only error control" in out and "lambda1 = " in out
+    rc = main(["lyapunov", "slider_crank", "--estimator", "benettin", "--state-error-only"])
+    cap = capsys.readouterr()
+    assert rc == 2 and "--state-error-only" in cap.err and "Traceback" not in cap.err
