@@ -55,6 +55,46 @@ COLORS = {"c=0.05mm": "tab:green", "c=0.25mm": "tab:blue", "c=0.5mm": "tab:purpl
           "mu=0": "tab:red", "mu=0.1": "tab:orange", "mu=0.3": "tab:brown"}
 N_PEAKS = 3
 PERIOD_TOL = 1e-6          # section period: points repeat to PERIOD_TOL x clearance
+# a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
+# points the section cannot tell an attractor from a transient, whatever the exponent says
+MIN_SECTION_POINTS = 50
+# e/c axes of the sections and bifurcation diagrams: +-1 = the journal touches the bearing
+EC_LIM = 1.15
+VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
+                  "uncertain": "0.5"}
+UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
+                    "estimate over its last half")
+
+
+def verdict(lam: float, unc: float, n_points: int) -> str:
+    """'chaotic' only for lambda - uncertainty > 0 over a section of at least MIN_SECTION_POINTS
+    points; a positive exponent over a shorter section is 'λ1 > 0, short'."""
+    if not (lam == lam):
+        return "failed"
+    if lam + unc < 0:
+        return "regular"
+    if lam - unc > 0:
+        return "chaotic" if n_points >= MIN_SECTION_POINTS else "λ1 > 0, short"
+    return "uncertain"
+
+
+def estimator_line(settings: dict, period: float | None) -> str:
+    """Estimator, tolerance, averaging span (from an exponent's own settings) and what the
+    uncertainty is."""
+    from nld.report import estimator_text
+    st = {k: v for k, v in dict(settings or {}).items() if k != "scales"}
+    return estimator_text(st, None, period) + "; " + UNCERTAINTY_TEXT
+
+
+def sweep_estimator_settings(df: pd.DataFrame, period: float) -> dict:
+    """The exponent settings of a sweep, from the sweep's own provenance (every point used them):
+    estimator, rtol, and the averaging span (lyapunov_revs periods from the end of the section)."""
+    prov = dict(df.attrs.get("provenance", {}) or {})
+    out = {"method": prov.get("lyapunov_estimator") or "?", "transient": 0.0,
+           "total": float(prov.get("lyapunov_revs", float("nan"))) * period}
+    if prov.get("lyapunov_rtol") is not None:
+        out["rtol"] = float(prov["lyapunov_rtol"])
+    return out
 
 
 # --------------------------------------------------------------------------------------- runs
@@ -85,12 +125,11 @@ def run_case(name, st):
     spec = table_spectrum(tab, "B.Fn")
     pk = peaks(spec, n=N_PEAKS)
     fn = tab["B.Fn"].to_numpy()
+    n_sec = int(len(sec.table))
     row = {"case": name, "group": CASES[name][0], "clearance_mm": c * 1e3, "mu": mu,
            "lambda_per_rev": lyap.per_revolution, "lambda_unc_per_rev": lyap.uncertainty_per_revolution,
-           "verdict": ("chaotic" if lyap.per_revolution - lyap.uncertainty_per_revolution > 0 else
-                       "regular" if lyap.per_revolution + lyap.uncertainty_per_revolution < 0 else
-                       "uncertain"),
-           "section_period": int(per),
+           "verdict": verdict(lyap.per_revolution, lyap.uncertainty_per_revolution, n_sec),
+           "section_points": n_sec, "section_period": int(per),
            "max_Fn": float(np.max(fn)), "rms_Fn": float(np.sqrt(np.mean(fn ** 2))),
            "contact_fraction": float(np.mean(fn > 0)),
            "peak_orders": ", ".join(f"{o:.2f}" for o in pk["order"]),
@@ -119,95 +158,194 @@ def sweep_points(df: pd.DataFrame, period: float, clearance=None) -> pd.DataFram
     uses the points' range as the scale)."""
     from nld.poincare import period_of
     first = df.drop_duplicates(["direction", "index"]).sort_values("index")
-    periods = []
+    periods, npts = [], []
     for _, r in first.iterrows():
         g = df[(df["direction"] == r["direction"]) & (df["index"] == r["index"]) & (df["rev"] >= 0)]
         c = float(r["value"]) if clearance is None else clearance
         ok = r["status"] == "ok" and len(g) >= 2
         periods.append(period_of(g[["B.ex", "B.ey"]], tol=PERIOD_TOL, scale=c,
                                  n_max=max(1, min(16, len(g) // 2))) if ok else 0)
+        npts.append(int(len(g)) if r["status"] == "ok" else 0)
+    lam = first["lyapunov"].to_numpy(float) * period
+    unc = first["lyapunov_uncertainty"].to_numpy(float) * period
     return pd.DataFrame({"value": first["value"].astype(float).to_numpy(),
-                         "lambda_per_rev": first["lyapunov"].to_numpy(float) * period,
-                         "lambda_unc_per_rev": first["lyapunov_uncertainty"].to_numpy(float) * period,
+                         "lambda_per_rev": lam, "lambda_unc_per_rev": unc,
+                         "section_points": np.array(npts, dtype=int),
+                         "verdict": [verdict(a, b, n) for a, b, n in zip(lam, unc, npts)],
                          "period": np.array(periods, dtype=int),
                          "status": first["status"].to_numpy()})
+
+
+def with_ec(df: pd.DataFrame, clearance=None) -> pd.DataFrame:
+    """The table with the journal eccentricity over the clearance, ``B.ex/c`` and ``B.ey/c``
+    (dimensionless; +-1 = touching the bearing). clearance: None (a clearance sweep: the swept
+    value) or the fixed clearance (m)."""
+    c = df["value"].astype(float).to_numpy() if clearance is None else float(clearance)
+    return df.assign(**{"B.ex/c": df["B.ex"].to_numpy(float) / c, "B.ey/c": df["B.ey"].to_numpy(float) / c})
 
 
 # ------------------------------------------------------------------------------------- figures
 
 
-def _fig_sections(rep, res):
-    from nld.plots import poincare_scatter
+def _fig_sections(rep, res, period):
+    th = np.linspace(0, 2 * np.pi, 200)
     with rep.style():
+        # the same limits on every panel (set below; not shared axes, whose hidden tick labels
+        # make the tight layout overlap the titles with an equal aspect)
         fig, axes = rep.subplots(2, 3, squeeze=False,
                                  title="Poincaré sections (stroboscopic, once per crank revolution): "
-                                       "journal eccentricity at B")
+                                       "journal eccentricity at B over the clearance")
         for ax, name in zip(axes.ravel(), CASES):
             r = res[name]
             c = CASES[name][2]
-            poincare_scatter(r["section"], "B.ex", "B.ey", ax=ax, scale=1e3, unit="mm", s=5,
-                             color=COLORS[name])
-            th = np.linspace(0, 2 * np.pi, 200)
-            ax.plot(c * 1e3 * np.cos(th), c * 1e3 * np.sin(th), color="0.6", lw=0.6, ls=":")
+            tab = with_ec(r["section"].table, c)
+            ax.scatter(tab["B.ex/c"], tab["B.ey/c"], s=5, color=COLORS[name], linewidths=0,
+                       label="section points")
+            ax.plot(np.cos(th), np.sin(th), color="0.6", lw=0.6, ls=":", label="clearance circle e = c")
+            ax.set_aspect("equal", adjustable="box")
+            ax.set_xlim(-EC_LIM, EC_LIM)
+            ax.set_ylim(-EC_LIM, EC_LIM)
             row = r["row"]
-            ax.set_title(f"{name} (c = {row['clearance_mm']:g} mm, μ = {row['mu']:g})\n"
-                         f"λ1 = {row['lambda_per_rev']:.3g} ± {row['lambda_unc_per_rev']:.2g} /rev, "
-                         f"period {row['section_period'] or 'none'}", fontsize=8)
+            ax.set_title(f"{name} (c = {row['clearance_mm']:g} mm, μ = {row['mu']:g}): "
+                         f"{row['section_points']} points\n"
+                         f"λ1 = {row['lambda_per_rev']:.3g} ± {row['lambda_unc_per_rev']:.2g} /rev "
+                         f"({row['verdict']}), period {row['section_period'] or 'none'}", fontsize=8)
+            ax.set_xlabel("B.ex / c [−]")
+            ax.set_ylabel("B.ey / c [−]")
+        axes[0, 0].legend(loc="lower left", fontsize=7)
+    est = estimator_line(res[next(iter(CASES))]["lyap"].settings, period)
     rep.figure(fig, caption="Each point is the journal centre relative to the bearing centre at t = kT "
-                            "(k after the transient), dotted circle = clearance circle. A period-n orbit "
-                            "gives n points; a cloud or a curve is a non-periodic (chaotic or "
-                            "quasi-periodic) motion. λ1: largest Lyapunov exponent (natural log per crank "
-                            "revolution) from the end of the section.")
+                            "(k after the transient), divided by the clearance c of that case, so that the "
+                            "panels compare (all on the same axes; dotted: the clearance circle e = c). A "
+                            "period-n orbit gives n points; a cloud or a curve is a non-periodic (chaotic or "
+                            "quasi-periodic) motion; a section of fewer than "
+                            f"{MIN_SECTION_POINTS} points is not called chaotic whatever the exponent "
+                            "('λ1 > 0, short'). λ1: largest Lyapunov exponent (natural log per crank "
+                            f"revolution) from the end of the section; {est}.")
 
 
-def _fig_sweep(rep, sw, pts, key, title, param_scale, param_unit, log):
-    from nld.plots import bifurcation_diagram
+def _lam_panel(ax, pts, x, ylim=None):
+    """λ1 ± uncertainty against the parameter, coloured by verdict (the same legend in every sweep)."""
+    ok = (pts["status"] == "ok").to_numpy()
+    lam, unc = pts["lambda_per_rev"].to_numpy(float), pts["lambda_unc_per_rev"].to_numpy(float)
+    x = np.asarray(x, float)
+    ax.plot(x[ok], lam[ok], color="0.6", lw=0.8)
+    for v, col in VERDICT_COLORS.items():
+        sel = ok & (pts["verdict"] == v).to_numpy()
+        if sel.any():
+            ax.errorbar(x[sel], lam[sel], yerr=unc[sel], fmt="o", ms=3.5, capsize=2, color=col,
+                        label=f"{v} ({int(sel.sum())})")
+    ax.axhline(0.0, color="k", lw=0.8, ls="--")
+    for xi, p in zip(x[ok], pts["period"].to_numpy()[ok]):
+        if p:
+            ax.annotate(f"P{p}", (xi, 0), textcoords="offset points", xytext=(0, 6), fontsize=7,
+                        ha="center", color="tab:blue")
+    ax.set_ylabel("λ1 [1/revolution]")
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.legend(loc="upper right", fontsize=7.5)
+
+
+def lam_ylim(*pts_list):
+    """A common y-range for the λ1 panels of the sweeps (they are compared)."""
+    lo, hi = [0.0], [0.0]
+    for p in pts_list:
+        ok = p[p["status"] == "ok"]
+        if len(ok):
+            lo.append(float((ok["lambda_per_rev"] - ok["lambda_unc_per_rev"]).min()))
+            hi.append(float((ok["lambda_per_rev"] + ok["lambda_unc_per_rev"]).max()))
+    lo, hi = min(lo), max(hi)
+    pad = 0.08 * max(hi - lo, 1.0)
+    return lo - pad, hi + pad
+
+
+def _fig_sweep(rep, sw, pts, xlabel, title, param_scale, log, clearance, period, ylim):
     with rep.style():
         fig, (a1, a2) = rep.subplots(2, 1, sharex=True, title=title)
-        bifurcation_diagram(sw, "B.ex", ax=a1, scale=1e3, unit="mm", param_scale=param_scale,
-                            param_unit=param_unit, s=3, title="")
-        ok = pts["status"] == "ok"
-        x = pts["value"] * param_scale
-        a2.errorbar(x[ok], pts["lambda_per_rev"][ok], yerr=pts["lambda_unc_per_rev"][ok], fmt="o-",
-                    ms=3.5, lw=0.9, capsize=2, color="k", label="λ1 ± uncertainty")
-        a2.axhline(0.0, color="tab:red", lw=0.8, ls="--")
-        for xi, p in zip(x[ok], pts["period"][ok]):
-            if p:
-                a2.annotate(f"P{p}", (xi, 0), textcoords="offset points", xytext=(0, 6), fontsize=7,
-                            ha="center", color="tab:blue")
-        a2.set_ylabel("λ1 [1/revolution]")
-        a2.set_xlabel(f"{key} [{param_unit}]")
-        a2.legend(loc="best")
+        ok = sw[(sw["status"] == "ok") & (sw["rev"] >= 0)]
+        ec = with_ec(ok, clearance)
+        a1.scatter(ec["value"].astype(float) * param_scale, ec["B.ex/c"], s=4, color="tab:blue",
+                   linewidths=0, label="section points")
+        for yv in (-1.0, 1.0):
+            a1.axhline(yv, color="0.6", lw=0.6, ls=":")
+        a1.set_ylim(-EC_LIM, EC_LIM)
+        a1.set_ylabel("B.ex / c [−]")
+        a1.legend(loc="upper right", fontsize=7.5)
+        _lam_panel(a2, pts, pts["value"] * param_scale, ylim)
+        a2.set_xlabel(xlabel)
         if log:
             a2.set_xscale("log")
-    rep.figure(fig, caption="Top: section points of the journal eccentricity B.ex after the transient "
-                            "(a single point per parameter value = period 1). Bottom: the largest "
-                            "exponent from the end of each section; 'Pn' marks a section that repeats "
-                            "with period n (nld.poincare.period_of: points repeating to 1e-6 of the clearance).")
+    est = estimator_line(sweep_estimator_settings(sw, period), period)
+    rep.figure(fig, caption="Top: section points of the journal eccentricity B.ex after the transient, "
+                            "divided by the clearance c of the point (±1, dotted: the journal touches the "
+                            "bearing; a single point per parameter value = period 1). Bottom: the largest "
+                            "exponent from the end of each section (both sweeps on the same λ1 range); "
+                            "chaotic: λ1 − uncertainty > 0 over at least "
+                            f"{MIN_SECTION_POINTS} section points ('λ1 > 0, short' below that), regular: "
+                            "λ1 + uncertainty < 0; 'Pn' marks a section that repeats with period n "
+                            "(nld.poincare.period_of: points repeating to 1e-6 of the clearance). "
+                            f"λ1: {est}.")
+
+
+def _spectra_max_order(res) -> float:
+    """Crank orders shown: at least 20, and every peak the table lists inside the axes."""
+    top = [float(res[n]["peaks"]["order"].max()) for n in CASES if len(res[n]["peaks"])]
+    return max([20.0] + [1.1 * o for o in top])
 
 
 def _fig_spectra(rep, res):
     from nld.plots import spectrum_plot
+    max_order = _spectra_max_order(res)
     with rep.style():
-        fig, axes = rep.subplots(2, 3, squeeze=False, title="Spectra of the normal contact force at B")
+        fig, axes = rep.subplots(2, 3, squeeze=False, sharex=True, sharey=True,
+                                 title="Spectra of the normal contact force at B")
         for ax, name in zip(axes.ravel(), CASES):
             r = res[name]
-            spectrum_plot(r["spectrum"], ax=ax, peaks=r["peaks"], max_order=20, title=name)
+            spectrum_plot(r["spectrum"], ax=ax, peaks=r["peaks"], max_order=max_order,
+                          orders=[], title=name)
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
             ax.set_ylabel("PSD of B.Fn [N²/Hz]")
+            ax.set_xlabel("frequency [Hz]" if ax in axes[-1] else "")
+        axes[0, 0].legend(["spectrum", f"{N_PEAKS} largest peaks"], loc="upper right", fontsize=7.5)
     rep.figure(fig, caption="Welch spectra (Hann window) of B.Fn over the sampled run after the section "
-                            "(dotted lines: crank harmonics; red dots: the largest peaks, whose crank "
-                            "orders are in the summary table). A periodic motion puts the power on "
-                            "the harmonics; a chaotic one spreads it in a broadband floor.")
+                            f"(top axis: crank orders; red dots: the {N_PEAKS} largest peaks, whose crank "
+                            f"orders are in the summary table). Axes up to {max_order:.0f} crank orders, "
+                            "beyond the highest listed peak; all panels on the same axes. A periodic motion "
+                            "puts the power on the harmonics; a chaotic one spreads it in a broadband floor.")
 
 
-def _fig_convergence(rep, res):
+def _fig_convergence(rep, res, period):
     from nld.plots import exponent_convergence
+    lo, hi = [0.0], [0.0]
+    for name in CASES:              # a common y-range that ignores the first tenth of each run
+        ly = res[name]["lyap"]
+        h = np.asarray(ly.history, float) * period
+        h = h[len(h) // 10:]
+        u = float(ly.uncertainty_per_revolution)
+        f = float(ly.per_revolution)
+        lo += [float(np.nanmin(h)) if h.size else f, f - u]
+        hi += [float(np.nanmax(h)) if h.size else f, f + u]
+    pad = 0.08 * max(max(hi) - min(lo), 1.0)
     with rep.style():
-        fig, axes = rep.subplots(2, 3, squeeze=False, title="Convergence of the largest exponent")
+        fig, axes = rep.subplots(2, 3, squeeze=False, sharex=True, sharey=True,
+                                 title="Convergence of the largest exponent")
         for ax, name in zip(axes.ravel(), CASES):
-            exponent_convergence(res[name]["lyap"], per_revolution=True, ax=ax, title=name)
-    rep.figure(fig, caption="Running tangent-dynamics estimate of λ1 (per revolution) with the final value ± "
-                            "its uncertainty (block standard error + spread of the last half).")
+            ly = res[name]["lyap"]
+            exponent_convergence(ly, per_revolution=True, ax=ax,
+                                 title=f"{name}: λ1 = {ly.per_revolution:.3g} ± "
+                                       f"{ly.uncertainty_per_revolution:.2g} /rev",
+                                 labels=["running estimate"])
+            ax.set_ylim(min(lo) - pad, max(hi) + pad)
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
+            ax.set_ylabel("λ1 [1/revolution]")
+            ax.set_xlabel("averaging time [revolutions]" if ax in axes[-1] else "")
+        axes[0, 0].legend(loc="upper right", fontsize=7.5)
+    est = estimator_line(res[next(iter(CASES))]["lyap"].settings, period)
+    rep.figure(fig, caption="Running estimate of λ1 (per revolution) with the final value ± its uncertainty "
+                            "(band); all panels on the same axes (the first tenth of a run may leave them). "
+                            f"λ1: {est}.")
 
 
 # --------------------------------------------------------------------------------------- text
@@ -245,7 +383,11 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
         f"{st['samples_per_rev']} times per revolution for the force peaks and the spectrum. Sweeps: "
         f"{len(st['clearances'])} clearances and {len(st['frictions'])} friction coefficients, "
         f"{st['sweep_transient']} + {st['sweep_revs']} revolutions each, λ1 over {st['sweep_lyap']}. "
-        f"rtol {st['rtol']:g} everywhere (absolute tolerances scaled by the clearance).",
+        f"rtol {st['rtol']:g} everywhere (absolute tolerances scaled by the clearance). A case or a sweep "
+        f"point is called chaotic only when λ1 - uncertainty > 0 over a section of at least "
+        f"{MIN_SECTION_POINTS} points (a positive exponent over a shorter section reads 'λ1 > 0, short'); "
+        "regular when λ1 + uncertainty < 0. Eccentricities are shown over the clearance (e/c, ±1 = "
+        "touching the bearing) so that different clearances compare.",
     ]
     ok_c = pts_c[pts_c["status"] == "ok"]
     ok_f = pts_f[pts_f["status"] == "ok"]
@@ -254,14 +396,17 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
         if len(p) < 2:
             return f"{what}: not enough points."
         lo, hi = p.iloc[0], p.iloc[-1]
-        ch = p[p["lambda_per_rev"] - p["lambda_unc_per_rev"] > 0]
-        rg = p[p["lambda_per_rev"] + p["lambda_unc_per_rev"] < 0]
+        ch = p[p["verdict"] == "chaotic"]
+        sh = p[p["verdict"] == "λ1 > 0, short"]
+        rg = p[p["verdict"] == "regular"]
         xv = np.log(p["value"].to_numpy(float)) if what == "clearance" else p["value"].to_numpy(float)
         r = np.corrcoef(xv, p["lambda_per_rev"])[0, 1] if len(p) > 2 else float("nan")
         return (f"{what}: λ1 = {_f(lo['lambda_per_rev'])} /rev at {lo['value'] * scale:g} {unit}, "
                 f"{_f(hi['lambda_per_rev'])} /rev at {hi['value'] * scale:g} {unit}; "
                 f"max {_f(p['lambda_per_rev'].max())}, min {_f(p['lambda_per_rev'].min())}; "
-                f"{len(ch)} of {len(p)} points chaotic (λ1 - unc > 0), {len(rg)} regular (λ1 + unc < 0); "
+                f"{len(ch)} of {len(p)} points chaotic (λ1 - unc > 0 over at least {MIN_SECTION_POINTS} "
+                f"section points), {len(sh)} with λ1 - unc > 0 over a shorter section, {len(rg)} regular "
+                f"(λ1 + unc < 0); "
                 f"correlation of λ1 with {'log ' if what == 'clearance' else ''}{what}: {_f(r, 2)}.")
 
     found = [
@@ -287,7 +432,8 @@ def _discussion(summary, pts_c, pts_f):
     fr_ok = bool(len(ok_f) >= 2 and ok_f["lambda_per_rev"].iloc[-1] < ok_f["lambda_per_rev"].iloc[0])
     first_reg = ok_f[ok_f["lambda_per_rev"] + ok_f["lambda_unc_per_rev"] < 0]
     mu_reg = f"{first_reg['value'].iloc[0]:g}" if len(first_reg) else "none in the sweep"
-    cl_chaotic = ok_c[ok_c["lambda_per_rev"] - ok_c["lambda_unc_per_rev"] > 0]
+    cl_chaotic = ok_c[ok_c["verdict"] == "chaotic"]
+    cl_short = ok_c[ok_c["verdict"] == "λ1 > 0, short"]
     cl_incr = bool(len(ok_c) >= 2 and ok_c["lambda_per_rev"].iloc[-1] > ok_c["lambda_per_rev"].iloc[0])
     lines = [
         "Friction: " + ("REPRODUCED. " if fr_ok else "NOT reproduced. ") +
@@ -299,7 +445,10 @@ def _discussion(summary, pts_c, pts_f):
         f"{_f(s.loc['mu=0', 'contact_fraction'], 2)} at μ = 0 vs {_f(s.loc['mu=0.3', 'contact_fraction'], 2)} "
         "at μ = 0.3), and the section collapses to few points.",
         "Clearance: " + (
-            f"at μ = 0.01 {len(cl_chaotic)} of {len(ok_c)} clearances give an established positive exponent; "
+            f"at μ = 0.01 {len(cl_chaotic)} of {len(ok_c)} clearances are chaotic (an established positive "
+            f"exponent over at least {MIN_SECTION_POINTS} section points)"
+            + (f", {len(cl_short)} more have a positive exponent over too short a section to be called "
+               "chaotic" if len(cl_short) else "") + "; "
             f"λ1 goes from {_f(ok_c['lambda_per_rev'].iloc[0])} /rev at {ok_c['value'].iloc[0] * 1e3:g} mm "
             f"to {_f(ok_c['lambda_per_rev'].iloc[-1])} /rev at {ok_c['value'].iloc[-1] * 1e3:g} mm "
             f"(max {_f(ok_c['lambda_per_rev'].max())}). " +
@@ -365,16 +514,23 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
             "rtol": st["rtol"], "source": CITATION, "settings": st,
             "cases": {n: {"overrides": CASES[n][1]} for n in CASES},
             "summary": summary.to_dict(orient="records"), "sweep_wall_s": sweep_wall,
-            "compute_wall_s": wall}
+            "compute_wall_s": wall, "min_section_points": MIN_SECTION_POINTS,
+            "case_estimator": {n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
+            "sweep_estimator": {k: estimator_line(sweep_estimator_settings(v, period), period)
+                                for k, v in sweeps.items()}}
     save_study_data({n: res[n]["table"] for n in CASES}, out_dir / f"{STEM}.parquet", prov)
-    save_study_data({n: res[n]["section"].table for n in CASES}, out_dir / f"{STEM}_sections.parquet", prov)
-    save_study_data({k: v.reset_index(drop=True) for k, v in sweeps.items()},
+    # sections and sweeps with the eccentricity over the clearance (B.ex/c, B.ey/c) as plotted
+    save_study_data({n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES},
+                    out_dir / f"{STEM}_sections.parquet", prov)
+    save_study_data({"clearance": with_ec(sweeps["clearance"]).reset_index(drop=True),
+                     "friction": with_ec(sweeps["friction"], base.joints["B"].clearance).reset_index(drop=True)},
                     out_dir / f"{STEM}_sweeps.parquet", prov)
     save_study_data({n: pd.DataFrame(res[n]["spectrum"]) for n in CASES}, out_dir / f"{STEM}_spectra.parquet",
                     prov)
     shown = summary.drop(columns=["group", "status"] + (["wall_s"] if source_date_epoch() else []))
     shown = shown.rename(columns={"clearance_mm": "c", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
-                                  "section_period": "period", "contact_fraction": "in contact",
+                                  "section_period": "period", "section_points": "points",
+                                  "contact_fraction": "in contact",
                                   "peak_orders": "peak orders", "wall_s": "wall"})
     save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
 
@@ -387,7 +543,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     rep = Report(pdf, TITLE, scene=base, provenance=prov, settings=settings,
                  subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
                  subject="Clearance size and friction vs chaos in a four-bar with a clearance joint",
-                 keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov", mode])
+                 keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov", mode], started=start)
     intro, found = _texts(summary, pts_c, pts_f, st, mode_label)
     with rep:
         rep.text_page("What this report reproduces", intro)
@@ -396,29 +552,38 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                   col_units={"c": "mm", "λ1": "1/rev", "± unc": "1/rev", "max_Fn": "N", "rms_Fn": "N",
                              "wall": "s"},
                   notes=["λ1 ± unc: largest Lyapunov exponent per crank revolution (lambda_per_rev, "
-                         "lambda_unc_per_rev in the CSV); verdict 'chaotic' if λ1 - unc > 0, 'regular' if "
-                         "λ1 + unc < 0. period: period of the "
+                         "lambda_unc_per_rev in the CSV); verdict 'chaotic' if λ1 - unc > 0 and the section "
+                         f"has at least {MIN_SECTION_POINTS} points ('λ1 > 0, short' below that), 'regular' if "
+                         f"λ1 + unc < 0. λ1: {prov['case_estimator'][next(iter(CASES))]}. points: section "
+                         "points. period: period of the "
                          "Poincaré section (points repeat to 1e-6 of the clearance; 0 = none up to 16). max_Fn, rms_Fn, in contact (fraction of samples with B.Fn > 0): over "
                          f"the sampled run stored in {STEM}.parquet (B.Fn). peak_orders: crank orders of "
                          "the three largest peaks of the B.Fn spectrum."],
                   float_format=lambda v: f"{v:.4g}")
         sw_table = pd.concat([pts_c.assign(sweep="clearance", value=pts_c["value"] * 1e3),
                               pts_f.assign(sweep="friction mu")], ignore_index=True)
-        sw_table = sw_table[["sweep", "value", "lambda_per_rev", "lambda_unc_per_rev", "period", "status"]]
+        sw_table = sw_table[["sweep", "value", "lambda_per_rev", "lambda_unc_per_rev", "section_points",
+                             "verdict", "period", "status"]].rename(columns={"section_points": "points"})
         rep.table("Sweeps: largest exponent and section period per point", sw_table,
                   col_units={"lambda_per_rev": "1/rev", "lambda_unc_per_rev": "1/rev"},
-                  notes=["value: clearance in mm, or the friction coefficient. period: of the section, "
+                  notes=[f"λ1 (clearance sweep): {prov['sweep_estimator']['clearance']}. λ1 (friction sweep): "
+                         f"{prov['sweep_estimator']['friction']}. verdict as in the case table (at least "
+                         f"{MIN_SECTION_POINTS} section points for 'chaotic'). "
+                         "value: clearance in mm, or the friction coefficient. period: of the section, "
                          "points repeating to 1e-6 of the clearance (0 = none up to 16). Stored in "
                          f"{STEM}_sweeps.parquet (lyapunov in 1/s; x period {period:.4g} s = per rev)."],
                   float_format=lambda v: f"{v:.4g}")
-        _fig_sections(rep, res)
-        _fig_sweep(rep, sweeps["clearance"], pts_c, "clearance c",
-                   "Bifurcation diagram and λ1 against the clearance (μ = 0.01)", 1e3, "mm", True)
-        _fig_sweep(rep, sweeps["friction"], pts_f, "friction coefficient μ",
-                   "Bifurcation diagram and λ1 against the friction coefficient (c = 0.25 mm)", 1.0, "−",
-                   False)
+        _fig_sections(rep, res, period)
+        ylim = lam_ylim(pts_c, pts_f)
+        _fig_sweep(rep, sweeps["clearance"], pts_c, "clearance c [mm]",
+                   "Bifurcation diagram and λ1 against the clearance (μ = 0.01)", 1e3, True, None, period,
+                   ylim)
+        _fig_sweep(rep, sweeps["friction"], pts_f, "friction coefficient μ [−]",
+                   f"Bifurcation diagram and λ1 against the friction coefficient "
+                   f"(c = {base.joints['B'].clearance * 1e3:g} mm)", 1.0, False, base.joints["B"].clearance,
+                   period, ylim)
         _fig_spectra(rep, res)
-        _fig_convergence(rep, res)
+        _fig_convergence(rep, res, period)
         rep.text_page("Source vs ours: trends and why they differ", _discussion(summary, pts_c, pts_f))
     return pdf
 
