@@ -93,10 +93,75 @@ LAMBDA_CLIP = 25.0
 MAX_CHAOTIC_CANDIDATES = 3
 
 
-def _verdict(lam, unc):
+C0 = 0.5e-3                # m, the scene's radial clearance at B (main() checks it)
+# a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
+# points the section cannot tell an attractor from a transient, whatever the exponent says
+MIN_SECTION_POINTS = 50
+SHORT = "λ1 > 0, short"
+# e/c axes of the sections and bifurcation diagrams: +-1 = the journal touches the bearing
+EC_LIM = 1.15
+
+
+def ec_lim(*tables) -> float:
+    """A common limit of the e/c axes: EC_LIM, or more where the contact penetration takes the
+    journal further (small clearances at high load), so that no section point is cut off."""
+    m = [EC_LIM]
+    for t in tables:
+        for col in ("B.ex/c", "B.ey/c"):
+            if col in t.columns and len(t):
+                v = np.abs(t[col].to_numpy(float))
+                v = v[np.isfinite(v)]
+                if v.size:
+                    m.append(1.05 * float(v.max()))
+    return max(m)
+VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5"}
+UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
+                    "estimate over its last half")
+
+
+def _verdict(lam, unc, n_points):
+    """'chaotic' only for lambda - uncertainty > 0 over a section of at least MIN_SECTION_POINTS
+    points; a positive exponent over a shorter section is SHORT."""
     if not (lam == lam):
         return "failed"
-    return "chaotic" if lam - unc > 0 else "regular" if lam + unc < 0 else "uncertain"
+    if lam + unc < 0:
+        return "regular"
+    if lam - unc > 0:
+        return "chaotic" if n_points >= MIN_SECTION_POINTS else SHORT
+    return "uncertain"
+
+
+def _clearance(name: str, value: float) -> float:
+    """The clearance (m) of a point of sweep ``name``."""
+    return float(value) if name == "clearance" else C0
+
+
+def with_ec(df: pd.DataFrame, c) -> pd.DataFrame:
+    """The table with the journal eccentricity over the clearance, ``B.ex/c`` and ``B.ey/c``
+    (dimensionless; +-1 = touching the bearing); c: a clearance (m) or one per row."""
+    c = np.asarray(c, float)
+    return df.assign(**{"B.ex/c": df["B.ex"].to_numpy(float) / c, "B.ey/c": df["B.ey"].to_numpy(float) / c})
+
+
+def estimator_line(settings: dict, period: float | None) -> str:
+    """Estimator, tolerance, averaging span (from an exponent's own settings) and what the
+    uncertainty is."""
+    from nld.report import estimator_text
+    import re
+    st = {k: v for k, v in dict(settings or {}).items() if k != "scales"}
+    # in revolutions only: the crank period differs between the points compared
+    return re.sub(r" \([^()]* s\)", "", estimator_text(st, None, period)) + "; " + UNCERTAINTY_TEXT
+
+
+def sweep_estimator_line(df: pd.DataFrame) -> str:
+    """The exponent settings of a sweep, from the sweep's own provenance (every point used them):
+    estimator, rtol, and the averaging span (lyapunov_revs periods from the end of the section)."""
+    prov = dict(df.attrs.get("provenance", {}) or {})
+    st = {"method": prov.get("lyapunov_estimator") or "?", "transient": 0.0}
+    if prov.get("lyapunov_rtol") is not None:
+        st["rtol"] = float(prov["lyapunov_rtol"])
+    line = estimator_line(st, None)
+    return line.replace("; uncertainty", f"; averaged over {prov.get('lyapunov_revs', '?')} rev; uncertainty")
 
 
 # --------------------------------------------------------------------------------------- runs
@@ -126,16 +191,18 @@ def sweep_points(name: str, df: pd.DataFrame) -> pd.DataFrame:
     unc = first["lyapunov_uncertainty"].to_numpy(float)
     per, uper = lam * period, unc * period
     from nld.poincare import period_of
-    pc = []
+    pc, npts = [], []
     for i, val in zip(first["index"], v):
         g = df[(df["index"] == i) & (df["status"] == "ok")]
-        c = val if name == "clearance" else 0.5e-3
+        npts.append(int(len(g)))
+        c = _clearance(name, val)
         pc.append(period_of(g[OBS].to_numpy(float), tol=PERIOD_TOL_C, scale=c,
                             n_max=min(16, max(1, len(g) // 2))) if len(g) >= 2 else 0)
     return pd.DataFrame({"sweep": name, "param": SWEEPS[name][0], "index": first["index"].to_numpy(int),
                          "value": v, "period_s": period, "lambda_1_s": lam, "lambda_unc_1_s": unc,
                          "lambda_per_rev": per, "lambda_unc_per_rev": uper,
-                         "verdict": [_verdict(a, b) for a, b in zip(per, uper)],
+                         "section_points": np.array(npts, dtype=int),
+                         "verdict": [_verdict(a, b, n) for a, b, n in zip(per, uper, npts)],
                          "section_period": first["period"].to_numpy(int),
                          "period_c": np.array(pc, dtype=int),
                          "status": first["status"].to_numpy()})
@@ -178,6 +245,7 @@ def summary_table(points: dict) -> pd.DataFrame:
         rows.append({"sweep": name, "param": SWEEPS[name][0], "points": len(pts),
                      "chaotic": int((pts["verdict"] == "chaotic").sum()),
                      "regular": int((pts["verdict"] == "regular").sum()),
+                     "positive_short": int((pts["verdict"] == SHORT).sum()),
                      "uncertain": int((pts["verdict"] == "uncertain").sum()),
                      "failed": int((pts["status"] != "ok").sum()),
                      "periodic_sections": int((ok["period_c"] > 0).sum()),
@@ -198,14 +266,15 @@ def _overrides(name: str, value: float):
 
 def pick_states(points: dict):
     """(regular point, [chaotic candidates]): rows of the points table. Regular: the most negative
-    exponent among regular points, preferring a periodic section; chaotic candidates: the chaotic
-    points by decreasing lambda - uncertainty (at most MAX_CHAOTIC_CANDIDATES)."""
+    exponent among regular points, preferring a periodic section; chaotic candidates: the points
+    with lambda - uncertainty > 0 (chaotic, or SHORT: the showcase's longer section decides), by
+    decreasing lambda - uncertainty (at most MAX_CHAOTIC_CANDIDATES)."""
     allp = pd.concat(points.values(), ignore_index=True)
     reg = allp[allp["verdict"] == "regular"]
     per = reg[reg["period_c"] > 0]
     pool = per if len(per) else reg
     regular = pool.loc[pool["lambda_per_rev"].idxmin()].to_dict() if len(pool) else None
-    ch = allp[allp["verdict"] == "chaotic"]
+    ch = allp[allp["verdict"].isin(["chaotic", SHORT])]
     ch = ch.assign(_key=ch["lambda_per_rev"] - ch["lambda_unc_per_rev"]).sort_values("_key", ascending=False)
     chaotic = [r.drop(labels="_key").to_dict() for _, r in ch.head(MAX_CHAOTIC_CANDIDATES).iterrows()]
     return regular, chaotic
@@ -225,11 +294,13 @@ def run_state(pt: dict, st: dict):
     system.z0 = np.array(sec.z_final, float)
     lyap = lyapunov_tangent(system, transient=0.0, total=st["case_lyap_revs"] * sec.period,
                             rtol=st["case_lyap_rtol"])
-    c = pt["value"] if pt["sweep"] == "clearance" else 0.5e-3
+    c = _clearance(pt["sweep"], pt["value"])
     p = period_of(sec.table[OBS], tol=PERIOD_TOL_C, scale=c, n_max=min(16, st["case_revs"] // 2))
     pts = sec.points[:, :2]
     spread = float(np.max(np.ptp(pts, axis=0))) if len(pts) else math.nan
-    return dict(section=sec, lyap=lyap, overrides=ov, period=int(p), spread_m=spread,
+    n = int(len(sec.table))
+    return dict(section=sec, lyap=lyap, overrides=ov, period=int(p), spread_m=spread, clearance=c,
+                section_points=n, verdict=_verdict(lyap.per_revolution, lyap.uncertainty_per_revolution, n),
                 success=bool(sec.success), message=sec.message, wall_s=time.perf_counter() - t0)
 
 
@@ -239,7 +310,7 @@ def tolerance_check(points: dict, st: dict) -> pd.DataFrame:
     from nld.lyapunov import largest_exponent
     from nld.poincare import stroboscopic
     from nld.systems import SceneSystem
-    rows = []
+    rows, est_lines = [], {}
     for name, pts in points.items():
         ok = pts[pts["status"] == "ok"]
         if not len(ok):
@@ -258,8 +329,11 @@ def tolerance_check(points: dict, st: dict) -> pd.DataFrame:
             key = _tc_key(est, rtol)
             row[f"lambda {key}"] = float(r.per_revolution)
             row[f"unc {key}"] = float(r.uncertainty_per_revolution)
+            est_lines.setdefault(key, estimator_line(r.settings, sec.period))
         rows.append(row)
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows)
+    out.attrs["estimators"] = est_lines     # (estimator, rtol) key -> line from the results' settings
+    return out
 
 
 # ------------------------------------------------------------------------------------- figures
@@ -270,71 +344,95 @@ def _fmt_value(name, v):
     return f"{v * scale:.4g} {unit}" if unit != "−" else f"{v:.4g}"
 
 
-def _fig_sweep(rep, name, sw, pts, st):
-    from nld.plots import bifurcation_diagram
+def lam_ylim(points: dict):
+    """A common y-range for the λ1 panels of the sweeps (they are compared); exponents above
+    LAMBDA_CLIP are drawn on the upper edge with their value."""
+    lo, hi = [-1.0], [1.0]
+    for pts in points.values():
+        ok = pts[(pts["status"] == "ok") & np.isfinite(pts["lambda_per_rev"])]
+        if len(ok):
+            lo.append(float((ok["lambda_per_rev"] - ok["lambda_unc_per_rev"]).min()))
+            hi.append(float((ok["lambda_per_rev"] + ok["lambda_unc_per_rev"]).max()))
+    lo, hi = min(lo), min(max(hi), LAMBDA_CLIP)
+    pad = 0.08 * (hi - lo)
+    return lo - pad, hi + pad
+
+
+def _fig_sweep(rep, name, sw, pts, st, ylim, elim):
     param, label, scale, unit, log = SWEEPS[name]
     fixed = FIXED[name]
     with rep.style():
         fig, (a1, a2, a3) = rep.subplots(3, 1, sharex=True,
                                          title=f"Bifurcation diagram and largest Lyapunov exponent "
                                                f"against the {label} ({fixed})")
-        if name == "clearance":
-            # the clearance changes along the sweep: eccentricity relative to it
-            sw = sw.copy()
-            sw["ex_c"] = sw["B.ex"] / sw["value"].astype(float)
-            sw["ey_c"] = sw["B.ey"] / sw["value"].astype(float)
-            cols, yscale, ylab = ("ex_c", "ey_c"), 1.0, ("journal e_x / c [−]", "journal e_y / c [−]")
-            lim = 1.15
-        else:
-            cols, yscale, ylab = ("B.ex", "B.ey"), 1e3, ("journal e_x [mm]", "journal e_y [mm]")
-            lim = 1.15 * 0.5
-        for ax, col, yl in zip((a1, a2), cols, ylab):
-            bifurcation_diagram(sw, col, ax=ax, scale=yscale, param_scale=scale, param_unit=unit, s=3, title="")
-            ax.set_ylabel(yl)
-            ax.set_xlabel("")
-            ax.set_ylim(-lim, lim)
+        ok = sw[sw["status"] == "ok"]
+        # eccentricity over the clearance of the point: comparable across sweeps and clearances
+        ec = with_ec(ok, [_clearance(name, v) for v in ok["value"].astype(float)])
+        xs = ec["value"].astype(float).to_numpy() * scale
+        for ax, col in ((a1, "B.ex/c"), (a2, "B.ey/c")):
+            ax.scatter(xs, ec[col], s=4, color="tab:blue", linewidths=0, label="section points")
+            for yv in (-1.0, 1.0):
+                ax.axhline(yv, color="0.6", lw=0.6, ls=":")
+            ax.set_ylabel(f"journal {col.replace('B.', 'e_').replace('/c', '')} / c [−]")
+            ax.set_ylim(-elim, elim)
+        a1.legend(loc="upper right", fontsize=7.5)
         x = pts["value"].to_numpy(float) * scale
         lam, unc = pts["lambda_per_rev"].to_numpy(float), pts["lambda_unc_per_rev"].to_numpy(float)
-        colors = {"chaotic": "tab:red", "regular": "tab:blue", "uncertain": "0.5", "failed": "k"}
         a3.plot(x, lam, color="0.6", lw=0.8)
-        for v in ("chaotic", "regular", "uncertain"):
+        for v, colr in VERDICT_COLORS.items():
             sel = (pts["verdict"] == v).to_numpy()
             if sel.any():
                 a3.errorbar(x[sel], lam[sel], yerr=unc[sel], fmt="o", ms=3.5, capsize=2,
-                            color=colors[v], label=f"{v} ({int(sel.sum())})")
+                            color=colr, label=f"{v} ({int(sel.sum())})")
         for xi, p in zip(x, pts["period_c"]):
             if p:
                 a3.annotate(f"P{p}", (xi, 0), textcoords="offset points", xytext=(0, 6), fontsize=7,
                             ha="center", color="tab:blue")
         a3.axhline(0.0, color="k", lw=0.8, ls="--")
-        fin = np.isfinite(lam)
-        if fin.any() and np.nanmax(lam) > LAMBDA_CLIP:
-            lo = min(-1.0, float(np.nanmin(lam - unc)) * 1.1)
-            a3.set_ylim(lo, LAMBDA_CLIP)
-            for xi, li, ui in zip(x, lam, unc):
-                if li > LAMBDA_CLIP:
-                    a3.annotate(f"↑ {li:.3g} ± {ui:.2g}", (xi, LAMBDA_CLIP), textcoords="offset points",
-                                xytext=(4, -12), fontsize=7.5, color="tab:red")
+        a3.set_ylim(*ylim)
+        for xi, li, ui in zip(x, lam, unc):
+            if li > ylim[1]:
+                a3.annotate(f"↑ {li:.3g} ± {ui:.2g}", (xi, ylim[1]), textcoords="offset points",
+                            xytext=(4, -12), fontsize=7.5, color="tab:red")
         a3.set_ylabel("λ1 [1/revolution]")
         a3.set_xlabel(f"{label} [{unit}]")
-        a3.legend(loc="best", fontsize=8)
+        a3.legend(loc="upper right", fontsize=7.5)
         if log:
             a3.set_xscale("log")
     rep.figure(fig, caption=(f"Each parameter value: {st['transient_revs']} transient revolutions, then "
                              f"{st['revs']} stroboscopic section points (t = kT) of the journal centre "
-                             "relative to the bearing centre (top: e_x, middle: e_y" + (", divided by the clearance c" if name == "clearance" else "") + "; a single point per "
-                             "value = period 1, a vertical spread = a non-periodic motion). Bottom: the largest "
-                             f"Lyapunov exponent (tangent dynamics with saltation, {st['lyap_revs']} revolutions "
-                             f"from the end of the section, rtol {st['lyap_rtol']:g}) per crank revolution ± its uncertainty; red: "
-                             "λ1 − uncertainty > 0 (chaotic), blue: λ1 + uncertainty < 0 (regular), grey: "
-                             "undecided; 'Pn': the section repeats with period n to 1e-4 of the clearance."))
+                             "relative to the bearing centre, divided by the clearance c of the point (top: "
+                             "e_x / c, middle: e_y / c; ±1, dotted: the journal touches the bearing; the same "
+                             "axes in every sweep; a single point per value = period 1, a vertical spread = a "
+                             "non-periodic motion). Bottom: the largest Lyapunov exponent per crank revolution "
+                             "± its uncertainty, from the end of the section (the same λ1 range in every "
+                             f"sweep); red: λ1 − uncertainty > 0 over at least {MIN_SECTION_POINTS} section "
+                             f"points (chaotic), orange: λ1 − uncertainty > 0 over fewer ('{SHORT}', not "
+                             "called chaotic), blue: λ1 + uncertainty < 0 (regular), grey: undecided; 'Pn': "
+                             "the section repeats with period n to 1e-4 of the clearance. λ1: "
+                             + sweep_estimator_line(sw) + "."))
+
+
+def _state_title(k, s):
+    return (f"{k} candidate" if k == "chaotic" and s["verdict"] != "chaotic" else k)
 
 
 def _fig_states(rep, states):
-    from nld.plots import exponent_convergence, poincare_scatter
+    from nld.plots import exponent_convergence
     names = [k for k in ("regular", "chaotic") if states.get(k)]
     if not names:
         return False
+    lo, hi = [0.0], [0.0]            # convergence panels on a common y-range (first tenth left out)
+    for k in names:
+        ly = states[k]["lyap"]
+        h = np.asarray(ly.history, float) * ly.period
+        h = h[len(h) // 10:]
+        f, u = float(ly.per_revolution), float(ly.uncertainty_per_revolution)
+        lo += [float(np.nanmin(h)) if h.size else f, f - u]
+        hi += [float(np.nanmax(h)) if h.size else f, f + u]
+    pad = 0.08 * max(max(hi) - min(lo), 1.0)
+    th = np.linspace(0, 2 * np.pi, 300)
+    lim = ec_lim(*[with_ec(states[k]["section"].table, states[k]["clearance"]) for k in names])
     with rep.style():
         fig, axes = rep.subplots(2, len(names), squeeze=False,
                                  title="Poincaré maps (once per crank revolution) of a regular and a "
@@ -343,27 +441,41 @@ def _fig_states(rep, states):
             s = states[k]
             pt = s["point"]
             sec = s["section"]
-            c = 0.5e-3 if pt["sweep"] != "clearance" else pt["value"]
             ax = axes[0, j]
-            poincare_scatter(sec, "B.ex", "B.ey", ax=ax, scale=1e3, unit="mm", s=6,
-                             color="tab:blue" if k == "regular" else "tab:red",
-                             label=f"{len(sec.table)} section points")
-            th = np.linspace(0, 2 * np.pi, 300)
-            ax.plot(c * 1e3 * np.cos(th), c * 1e3 * np.sin(th), color="0.5", lw=0.7, ls=":",
-                    label="clearance circle")
-            ax.set_xlabel("journal centre e_x [mm]")
-            ax.set_ylabel("journal centre e_y [mm]")
+            tab = with_ec(sec.table, s["clearance"])
+            ax.scatter(tab["B.ex/c"], tab["B.ey/c"], s=6, linewidths=0,
+                       color=VERDICT_COLORS.get(s["verdict"], "k"), label="section points")
+            ax.plot(np.cos(th), np.sin(th), color="0.5", lw=0.7, ls=":", label="clearance circle e = c")
+            ax.set_aspect("equal", adjustable="box")
+            ax.set_xlim(-lim, lim)
+            ax.set_ylim(-lim, lim)
+            ax.set_xlabel("journal e_x / c [−]")
+            ax.set_ylabel("journal e_y / c [−]")
             ax.legend(loc="lower left", fontsize=7)
-            ax.set_title(f"{k}: {SWEEPS[pt['sweep']][1]} = {_fmt_value(pt['sweep'], pt['value'])}; "
-                         f"period {s['period'] or 'none'} (n ≤ 16)", fontsize=9)
-            exponent_convergence(s["lyap"], per_revolution=True, ax=axes[1, j],
-                                 title=f"{k}: λ1 = {s['lyap'].per_revolution:.3g} ± "
-                                       f"{s['lyap'].uncertainty_per_revolution:.2g} per revolution")
+            ax.set_title(f"{_state_title(k, s)}: {SWEEPS[pt['sweep']][1]} = {_fmt_value(pt['sweep'], pt['value'])}; "
+                         f"{s['section_points']} points, period {s['period'] or 'none'} (n ≤ 16)", fontsize=9)
+            ly = s["lyap"]
+            exponent_convergence(ly, per_revolution=True, ax=axes[1, j], labels=["running estimate"],
+                                 title=f"{_state_title(k, s)}: λ1 = {ly.per_revolution:.3g} ± "
+                                       f"{ly.uncertainty_per_revolution:.2g} per revolution ({s['verdict']})")
+            axes[1, j].set_ylim(min(lo) - pad, max(hi) + pad)
+            axes[1, j].set_ylabel("λ1 [1/revolution]")
+            axes[1, j].set_xlabel("averaging time [revolutions]")
+            axes[1, j].legend(loc="upper right", fontsize=7.5)
+    ests = []
+    for k in names:
+        e = estimator_line(states[k]["lyap"].settings, states[k]["lyap"].period)
+        if e not in [x for _, x in ests]:
+            ests.append((k, e))
+    est = " | ".join(e if len(ests) == 1 else f"{k}: {e}" for k, e in ests)
     rep.figure(fig, caption=("Top: stroboscopic Poincaré maps of the journal centre (relative to the bearing "
-                             "centre), after the transient; dotted: the clearance circle. Bottom: running "
-                             "tangent estimate of λ1 from the end of the section (band: final ± "
-                             "uncertainty). The regular state contracts (λ1 < 0) onto a point or a few "
-                             "points, the chaotic one spreads over a strange set."))
+                             "centre, over the clearance c; both on the same axes), after the transient; "
+                             "dotted: the clearance circle. Bottom: running estimate of λ1 from the end of "
+                             "the section (band: final ± uncertainty; both on the same y-range). A state is "
+                             f"called chaotic only when λ1 − uncertainty > 0 over a section of at least "
+                             f"{MIN_SECTION_POINTS} points (else '{SHORT}'). The regular state contracts "
+                             "(λ1 < 0) onto a point or a few points, the chaotic one spreads over a strange "
+                             f"set. λ1: {est}."))
     return True
 
 
@@ -390,7 +502,7 @@ def _fig_state_other(rep, states):
                 poincare_scatter(tab, "slider.vx", "rod.omega", ax=ax, s=6, color="tab:red")
                 ax.set_xlabel("slider velocity v_x [m/s]")
                 ax.set_ylabel("rod angular velocity ω [rad/s]")
-            ax.set_title(k, fontsize=9)
+            ax.set_title(_state_title(k, states[k]), fontsize=9)
     rep.figure(fig, caption="The section points of the previous page in two velocity coordinates (regular state: "
                             "deviations from the mean point, in micro-units: a period-1 point being approached, down "
                             "to the floor set by the integration and the friction regularisation).")
@@ -461,7 +573,10 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         f"{st['lyap_rtol']:g}. Verdict: chaotic if λ1 − uncertainty > 0, "
         "regular if λ1 + uncertainty < 0 (the uncertainty is a block standard error plus the spread of the "
         "running estimate). Exponents are per crank revolution (natural log): a separation grows by e^λ1 "
-        "each revolution.",
+        f"each revolution. A point is called chaotic only when, in addition, its section has at least "
+        f"{MIN_SECTION_POINTS} points; a positive exponent over a shorter section reads '{SHORT}'. "
+        "Eccentricities are shown over the clearance (e/c, ±1 = touching the bearing) so that sweeps "
+        "and clearances compare.",
     ]
     reg, cha = states.get("regular"), states.get("chaotic")
     found = [
@@ -506,13 +621,16 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
                          f"{_f(t['lambda_per_rev'])} ± {_f(t['lambda_unc_per_rev'], digits=2)}"
                          for t in cha["tried"][:-1]) + ".")
     if cha:
-        found.append(f"- Chaotic showcase ({SWEEPS[cha['point']['sweep']][1]} = "
+        found.append(f"- {'Chaotic showcase' if cha['verdict'] == 'chaotic' else 'Chaotic candidate showcase'} "
+                     f"({SWEEPS[cha['point']['sweep']][1]} = "
                      f"{_fmt_value(cha['point']['sweep'], cha['point']['value'])}): {len(cha['section'].table)} "
                      f"section points spread over {_f(cha['spread_m'] * 1e6, 'µm')}; λ1 = "
                      f"{_f(cha['lyap'].per_revolution)} ± {_f(cha['lyap'].uncertainty_per_revolution, digits=2)} "
                      f"per revolution at rtol {st['case_lyap_rtol']:g} over {st['case_lyap_revs']} revolutions "
                      f"(sweep: {_f(cha['point']['lambda_per_rev'])} ± "
-                     f"{_f(cha['point']['lambda_unc_per_rev'], digits=2)}).")
+                     f"{_f(cha['point']['lambda_unc_per_rev'], digits=2)}); verdict: {cha['verdict']}"
+                     + (f" (a section of fewer than {MIN_SECTION_POINTS} points is not called chaotic)"
+                        if cha["verdict"] == SHORT else "") + ".")
     else:
         found.append("- No chaotic point was found in the sweeps: no chaotic showcase.")
     if tolcheck is not None and len(tolcheck):
@@ -665,6 +783,9 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     out_dir.mkdir(parents=True, exist_ok=True)
     pdf_path = out_dir / f"{STEM}.pdf"
     base = load_scene(SCENE)
+    if abs(base.joints["B"].clearance - C0) > 1e-12:
+        raise RuntimeError(f"scene {SCENE}: clearance at B {base.joints['B'].clearance!r} m, the study "
+                           f"assumes C0 = {C0!r} m")
 
     sweeps, walls = run_sweeps(st)
     points = {name: sweep_points(name, df) for name, df in sweeps.items()}
@@ -695,6 +816,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                       "lambda_per_rev": float(s["lyap"].per_revolution),
                       "lambda_unc_per_rev": float(s["lyap"].uncertainty_per_revolution),
                       "period": s["period"], "spread_m": s["spread_m"], "success": s["success"],
+                      "section_points": s["section_points"], "verdict": s["verdict"],
                       "message": s["message"], "candidates_tried": s["tried"],
                       **({} if _sde() else {"wall_s": s["wall_s"]})})
                  for k, s in states.items()}
@@ -706,12 +828,18 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
             "speeds_low_mu_rad_s": [float(v) for v in st["speeds_low_mu"]],
             "clearances_m": [float(v) for v in st["clearances"]],
             "frictions": [float(v) for v in st["frictions"]],
-            "observables": OBS, "states": state_rec, "summary": summary.to_dict(orient="records")}
+            "observables": OBS, "states": state_rec, "summary": summary.to_dict(orient="records"),
+            "min_section_points": MIN_SECTION_POINTS,
+            "sweep_estimator": {name: sweep_estimator_line(df) for name, df in sweeps.items()},
+            "tolcheck_estimator": dict(tolcheck.attrs.get("estimators", {})),
+            "state_estimator": {k: estimator_line(s["lyap"].settings, s["lyap"].period)
+                                for k, s in states.items() if s}}
     if not _sde():
         prov["wall_s"] = {"sweeps": walls, "total_before_report": total_wall}
     stacked = {}
     for name, df in sweeps.items():
-        d = df.copy()
+        # with the eccentricity over the clearance of the point (B.ex/c, B.ey/c) as plotted
+        d = with_ec(df, [_clearance(name, v) for v in df["value"].astype(float)])
         d.attrs = {}
         stacked[name] = d
     save_study_data(stacked, out_dir / f"{STEM}.parquet", prov)
@@ -719,7 +847,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     save_table(allpts, out_dir / f"{STEM}_points.csv", prov)
     save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
     save_table(tolcheck, out_dir / f"{STEM}_tolcheck.csv", prov)
-    secs = {k: s["section"].table.copy() for k, s in states.items() if s}
+    secs = {k: with_ec(s["section"].table, s["clearance"]) for k, s in states.items() if s}
     if secs:
         save_study_data(secs, out_dir / f"{STEM}_sections.parquet", prov)
 
@@ -739,7 +867,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     rep = Report(pdf_path, TITLE, scene=base, provenance=prov, settings=report_settings,
                  subtitle=("full mode" if mode == "full" else mode_label), highlight_subtitle=mode != "full",
                  subject="Chaos in the clearance slider-crank (Olyaei & Ghazavi 2012 style) with nld",
-                 keywords=["clearance joint", "slider-crank", "chaos", "Olyaei 2012", mode])
+                 keywords=["clearance joint", "slider-crank", "chaos", "Olyaei 2012", mode], started=start)
     intro, found, onset, why = _texts(points, summary, states, st, mode_label, tolcheck)
     with rep:
         rep.text_page("What this report repeats", intro)
@@ -752,16 +880,21 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         shown = shown.rename(columns={"max_lambda_per_rev": "max λ1", "min_lambda_per_rev": "min λ1",
                                       "argmax_value": "at", "argmin_value": "at ", "periodic_sections": "periodic",
                                       "first_chaotic_value": "first chaotic", "last_chaotic_value": "last chaotic",
-                                      "chaotic_windows": "windows", "lambda_zero_crossings": "λ1 = 0 crossings"})
+                                      "chaotic_windows": "windows", "lambda_zero_crossings": "λ1 = 0 crossings",
+                                      "positive_short": "λ1 > 0 short"})
         rep.table("Summary of the sweeps", shown, col_units={"max λ1": "1/rev", "min λ1": "1/rev"},
-                  notes=["Per sweep: points by verdict (chaotic: λ1 − uncertainty > 0, regular: λ1 + uncertainty "
-                         "< 0, else uncertain), sections detected periodic (n ≤ 16), the largest and smallest "
+                  notes=["Per sweep: points by verdict (chaotic: λ1 − uncertainty > 0 over a section of at least "
+                         f"{MIN_SECTION_POINTS} points; λ1 > 0 short: λ1 − uncertainty > 0 over fewer, not called "
+                         "chaotic; regular: λ1 + uncertainty < 0, else uncertain), sections detected periodic (n ≤ 16), the largest and smallest "
                          "λ1 per revolution and where, the smallest and largest chaotic value, the number of "
                          "contiguous chaotic windows and of sign changes of λ1. Every point in "
-                         f"{STEM}_points.csv; each number here follows from that file."],
+                         f"{STEM}_points.csv; each number here follows from that file. λ1 (all sweeps): "
+                         + " | ".join(dict.fromkeys(prov["sweep_estimator"].values())) + "."],
                   float_format=lambda v: f"{v:.4g}")
+        ylim = lam_ylim(points)
+        elim = ec_lim(*stacked.values())
         for name in SWEEPS:
-            _fig_sweep(rep, name, sweeps[name], points[name], st)
+            _fig_sweep(rep, name, sweeps[name], points[name], st, ylim, elim)
         tc = tolcheck.copy()
         tc["value"] = [_fmt_value(n, v) for n, v in zip(tc["sweep"], tc["value"])]
         ren = {"sweep_lambda_per_rev": "λ1 (sweep)", "sweep_unc_per_rev": "± (sweep)"}
@@ -777,7 +910,9 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                          "the header, and (B) by the two-trajectory estimator (Benettin, d0 = 1e-4 in the scaled "
                          "norm), an independent check. The sweeps use the tangent estimator at rtol "
                          f"{st['lyap_rtol']:g}. A sign that changes with the tolerance is a numerical artefact, not "
-                         f"chaos. Stored in {STEM}_tolcheck.csv."],
+                         f"chaos. Stored in {STEM}_tolcheck.csv. Settings of each column, from its results: "
+                         + " | ".join(f"{_tc_label(*k.split(' rtol=')[0:1], float(k.split('rtol=')[1]))}: {v}"
+                                      for k, v in prov["tolcheck_estimator"].items()) + "."],
                   float_format=lambda v: f"{v:.3g}")
         _fig_states(rep, states)
         _fig_state_other(rep, states)

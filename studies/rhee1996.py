@@ -60,6 +60,20 @@ PERIOD_TOL = 1e-6          # section period: points repeat to PERIOD_TOL x clear
 MIN_SECTION_POINTS = 50
 # e/c axes of the sections and bifurcation diagrams: +-1 = the journal touches the bearing
 EC_LIM = 1.15
+
+
+def ec_lim(*tables) -> float:
+    """A common limit of the e/c axes: EC_LIM, or more where the contact penetration takes the
+    journal further (small clearances at high load), so that no section point is cut off."""
+    m = [EC_LIM]
+    for t in tables:
+        for col in ("B.ex/c", "B.ey/c"):
+            if col in t.columns and len(t):
+                v = np.abs(t[col].to_numpy(float))
+                v = v[np.isfinite(v)]
+                if v.size:
+                    m.append(1.05 * float(v.max()))
+    return max(m)
 VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
                   "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
@@ -189,6 +203,7 @@ def with_ec(df: pd.DataFrame, clearance=None) -> pd.DataFrame:
 
 def _fig_sections(rep, res, period):
     th = np.linspace(0, 2 * np.pi, 200)
+    lim = ec_lim(*[with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES])
     with rep.style():
         # the same limits on every panel (set below; not shared axes, whose hidden tick labels
         # make the tight layout overlap the titles with an equal aspect)
@@ -203,8 +218,8 @@ def _fig_sections(rep, res, period):
                        label="section points")
             ax.plot(np.cos(th), np.sin(th), color="0.6", lw=0.6, ls=":", label="clearance circle e = c")
             ax.set_aspect("equal", adjustable="box")
-            ax.set_xlim(-EC_LIM, EC_LIM)
-            ax.set_ylim(-EC_LIM, EC_LIM)
+            ax.set_xlim(-lim, lim)
+            ax.set_ylim(-lim, lim)
             row = r["row"]
             ax.set_title(f"{name} (c = {row['clearance_mm']:g} mm, μ = {row['mu']:g}): "
                          f"{row['section_points']} points\n"
@@ -259,7 +274,7 @@ def lam_ylim(*pts_list):
     return lo - pad, hi + pad
 
 
-def _fig_sweep(rep, sw, pts, xlabel, title, param_scale, log, clearance, period, ylim):
+def _fig_sweep(rep, sw, pts, xlabel, title, param_scale, log, clearance, period, ylim, elim):
     with rep.style():
         fig, (a1, a2) = rep.subplots(2, 1, sharex=True, title=title)
         ok = sw[(sw["status"] == "ok") & (sw["rev"] >= 0)]
@@ -268,7 +283,7 @@ def _fig_sweep(rep, sw, pts, xlabel, title, param_scale, log, clearance, period,
                    linewidths=0, label="section points")
         for yv in (-1.0, 1.0):
             a1.axhline(yv, color="0.6", lw=0.6, ls=":")
-        a1.set_ylim(-EC_LIM, EC_LIM)
+        a1.set_ylim(-elim, elim)
         a1.set_ylabel("B.ex / c [−]")
         a1.legend(loc="upper right", fontsize=7.5)
         _lam_panel(a2, pts, pts["value"] * param_scale, ylim)
@@ -575,13 +590,15 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                   float_format=lambda v: f"{v:.4g}")
         _fig_sections(rep, res, period)
         ylim = lam_ylim(pts_c, pts_f)
+        elim = ec_lim(with_ec(sweeps["clearance"]),
+                      with_ec(sweeps["friction"], base.joints["B"].clearance))
         _fig_sweep(rep, sweeps["clearance"], pts_c, "clearance c [mm]",
                    "Bifurcation diagram and λ1 against the clearance (μ = 0.01)", 1e3, True, None, period,
-                   ylim)
+                   ylim, elim)
         _fig_sweep(rep, sweeps["friction"], pts_f, "friction coefficient μ [−]",
                    f"Bifurcation diagram and λ1 against the friction coefficient "
                    f"(c = {base.joints['B'].clearance * 1e3:g} mm)", 1.0, False, base.joints["B"].clearance,
-                   period, ylim)
+                   period, ylim, elim)
         _fig_spectra(rep, res)
         _fig_convergence(rep, res, period)
         rep.text_page("Source vs ours: trends and why they differ", _discussion(summary, pts_c, pts_f))

@@ -10,13 +10,68 @@ import numpy as np
 import pytest
 
 from nld.io import load_table
-from nld.report import Report
+from nld.report import Report, source_date_epoch
 from study_harness import count_pages, run_quick
 
 
+class _Recorder:
+    """Records what the study puts into its Report (captions, the axes of each figure, table notes,
+    the title page's rows) while the quick run writes it."""
+
+    def __init__(self):
+        self.figures, self.tables, self.info = [], [], []
+
+    def __enter__(self):
+        rec = self
+        self._orig = (Report.figure, Report.table, Report._info_lines)
+
+        def figure(rep, fig, caption=None):
+            sup = fig.get_suptitle()
+            axes = [dict(xlim=ax.get_xlim(), ylim=ax.get_ylim(), xlabel=ax.get_xlabel(),
+                         ylabel=ax.get_ylabel(), title=ax.get_title(),
+                         legend=[t.get_text() for t in ax.get_legend().get_texts()] if ax.get_legend() else [])
+                    for ax in fig.axes]
+            rec.figures.append(dict(title=sup, caption=caption or "", axes=axes))
+            return rec._orig[0](rep, fig, caption)
+
+        def table(rep, title, data, col_units=None, **kw):
+            rec.tables.append(dict(title=title, notes=" ".join(kw.get("notes") or []),
+                                   columns=list(getattr(data, "columns", []))))
+            return rec._orig[1](rep, title, data, col_units, **kw)
+
+        def info(rep, epoch):
+            rows = rec._orig[2](rep, epoch)
+            rec.info = rows
+            return rows
+
+        Report.figure, Report.table, Report._info_lines = figure, table, info
+        return self
+
+    def __exit__(self, *exc):
+        Report.figure, Report.table, Report._info_lines = self._orig
+        return False
+
+    def figure(self, words: str) -> dict:
+        hits = [f for f in self.figures if words in f["title"]]
+        assert len(hits) == 1, (words, [f["title"] for f in self.figures])
+        return hits[0]
+
+    def wall_time(self) -> float:
+        row = dict(self.info).get("Wall time", "")
+        return float(row.split(" s")[0]) if row[:1].isdigit() else float("nan")
+
+
 @pytest.fixture(scope="module")
-def quick_run(tmp_path_factory):
-    return run_quick("olyaei2012.py", tmp_path_factory)
+def quick_run_rec(tmp_path_factory):
+    """The quick run (once), with what went into the report recorded (see _Recorder)."""
+    with _Recorder() as rec:
+        study, out, pdf = run_quick("olyaei2012.py", tmp_path_factory)
+    return study, out, pdf, rec
+
+
+@pytest.fixture(scope="module")
+def quick_run(quick_run_rec):
+    return quick_run_rec[:3]
 
 
 def test_quick_writes_pdf_and_data(quick_run):
@@ -62,14 +117,20 @@ def test_points_and_summary_follow_from_the_sweeps(quick_run):
         speed = g["value"].to_numpy() if study.SWEEPS[name][0] == "driver.speed" else np.full(len(g), study.SPEED0)
         lam = part.loc[g["index"], "lyapunov"].to_numpy(float)
         assert np.allclose(g["lambda_per_rev"], lam * 2 * np.pi / speed, rtol=1e-12)
-        for lam_r, unc, verdict in zip(g["lambda_per_rev"], g["lambda_unc_per_rev"], g["verdict"]):
-            assert verdict == ("chaotic" if lam_r - unc > 0 else "regular" if lam_r + unc < 0 else "uncertain")
+        for lam_r, unc, n, verdict in zip(g["lambda_per_rev"], g["lambda_unc_per_rev"], g["section_points"],
+                                          g["verdict"]):
+            # chaotic only over a section of at least the stated minimum of points
+            assert verdict == (("chaotic" if n >= study.MIN_SECTION_POINTS else "λ1 > 0, short") if lam_r - unc > 0
+                               else "regular" if lam_r + unc < 0 else "uncertain")
+        ok = g[g["status"] == "ok"]
+        assert (ok["section_points"] == study.QUICK["revs"]).all()
         s = summ.loc[name]
         assert s["points"] == len(g)
         assert s["max_lambda_per_rev"] == pytest.approx(g["lambda_per_rev"].max(), rel=1e-12)
         assert s["min_lambda_per_rev"] == pytest.approx(g["lambda_per_rev"].min(), rel=1e-12)
         assert s["chaotic"] == (g["verdict"] == "chaotic").sum()
         assert s["regular"] == (g["verdict"] == "regular").sum()
+        assert s["positive_short"] == (g["verdict"] == "λ1 > 0, short").sum()
         ch = g.loc[g["verdict"] == "chaotic", "value"]
         if len(ch):
             assert s["first_chaotic_value"] == pytest.approx(ch.min(), rel=1e-12)
@@ -82,7 +143,8 @@ def test_showcase_states(quick_run):
     pts, prov = load_table(out / "olyaei2012_points.csv")
     states = prov["states"]
     reg = pts[pts["verdict"] == "regular"]
-    cha = pts[pts["verdict"] == "chaotic"]
+    # chaotic-showcase candidates: a positive exponent, whatever the length of the sweep's section
+    cha = pts[pts["verdict"].isin(["chaotic", "λ1 > 0, short"])]
     assert (states["regular"] is None) == (len(reg) == 0)
     assert (states["chaotic"] is None) == (len(cha) == 0)
     if not (len(reg) or len(cha)):
@@ -93,13 +155,19 @@ def test_showcase_states(quick_run):
         if st is None:
             continue
         s = secs[secs["case"] == k]
-        assert len(s) == study.QUICK["case_revs"]
+        assert len(s) == study.QUICK["case_revs"] == st["section_points"]
+        lam, unc = st["lambda_per_rev"], st["lambda_unc_per_rev"]
+        if lam - unc > 0:
+            assert st["verdict"] == ("chaotic" if len(s) >= study.MIN_SECTION_POINTS else "λ1 > 0, short")
+        # the e/c columns are the stored eccentricities over the state's clearance
+        c = st["value"] if st["sweep"] == "clearance" else study.C0
+        assert np.allclose(s["B.ex/c"], s["B.ex"] / c, rtol=1e-12)
+        assert np.allclose(s["B.ey/c"], s["B.ey"] / c, rtol=1e-12)
         # the spread in the report is that of the stored section points
         spread = max(np.ptp(s["B.ex"]), np.ptp(s["B.ey"]))
         assert st["spread_m"] == pytest.approx(spread, rel=1e-12)
         # the journal stays within its clearance plus the contact penetration
-        c = st["value"] if st["sweep"] == "clearance" else 0.5e-3
-        assert (np.hypot(s["B.ex"], s["B.ey"]) < 1.2 * c).all()
+        assert (np.hypot(s["B.ex/c"], s["B.ey/c"]) < 1.2).all()
     if states["chaotic"] is not None:
         # candidates in order of lambda - uncertainty; the shown state is the last one tried
         best = cha.loc[(cha["lambda_per_rev"] - cha["lambda_unc_per_rev"]).idxmax()]
@@ -129,3 +197,53 @@ def test_tolerance_check_covers_the_largest_exponents(quick_run):
         # section: the check at that tolerance repeats it from a fresh section of the same length
         key = f"tangent rtol={study.QUICK['lyap_rtol']:g}"
         assert r[f"lambda {key}"] == pytest.approx(r["sweep_lambda_per_rev"], rel=1e-9)
+
+
+def test_eccentricity_over_clearance_saved(quick_run):
+    study, out, _ = quick_run
+    df, prov = load_table(out / "olyaei2012.parquet")
+    assert prov["scene_parameters"]["joints"]["B"]["clearance"] == pytest.approx(study.C0, rel=1e-12)
+    ok = df[df["status"] == "ok"]
+    c = np.where(ok["case"] == "clearance", ok["value"].astype(float), study.C0)
+    assert np.allclose(ok["B.ex/c"], ok["B.ex"] / c, rtol=1e-12)
+    assert np.allclose(ok["B.ey/c"], ok["B.ey"] / c, rtol=1e-12)
+    # within the clearance plus the contact penetration (a few µm at 0.05 mm and 5000 rpm)
+    assert np.hypot(ok["B.ex/c"], ok["B.ey/c"]).max() < 1.2
+
+
+def test_figures_compare_and_state_their_estimator(quick_run_rec):
+    study, out, _, rec = quick_run_rec
+    _, prov = load_table(out / "olyaei2012.parquet")
+    q = study.QUICK
+    sweeps = [rec.figure(f"against the {study.SWEEPS[n][1]} ({study.FIXED[n]})") for n in study.SWEEPS]
+    for f in sweeps:
+        cap = f["caption"]
+        assert "estimator tangent" in cap and f"rtol {q['lyap_rtol']:g}" in cap
+        assert f"averaged over {q['lyap_revs']} rev" in cap and "uncertainty:" in cap
+        assert f"at least {study.MIN_SECTION_POINTS} section points" in cap
+        a1, a2, a3 = f["axes"]
+        # e/c in every sweep, on the same axes; the same λ1 range; x label only at the bottom
+        assert a1["ylabel"].endswith("/ c [−]") and a2["ylabel"].endswith("/ c [−]")
+        assert a1["ylim"] == sweeps[0]["axes"][0]["ylim"] and a2["ylim"] == a1["ylim"]
+        assert 1.0 < a1["ylim"][1] < 1.5
+        assert a3["ylim"] == sweeps[0]["axes"][2]["ylim"]
+        assert a1["xlabel"] == a2["xlabel"] == "" and "[" in a3["xlabel"]
+    if any(prov["states"].values()):
+        f = rec.figure("Poincaré maps (once per crank revolution) of a regular")
+        assert "estimator tangent" in f["caption"] and f"rtol {q['case_lyap_rtol']:g}" in f["caption"]
+        assert f"averaged over {q['case_lyap_revs']} rev" in f["caption"]
+        assert f"at least {study.MIN_SECTION_POINTS} points" in f["caption"]
+        n = len(f["axes"]) // 2
+        maps, conv = f["axes"][:n], f["axes"][n:]
+        assert len({(a["xlim"], a["ylim"]) for a in maps}) == 1 and len({a["ylim"] for a in conv}) == 1
+        for k, st in prov["states"].items():
+            if st is not None and st["verdict"] != "chaotic":
+                assert not any(a["title"].startswith("chaotic:") for a in f["axes"])
+    # every table of exponents names the estimator and its tolerance
+    tables = {t["title"]: t["notes"] for t in rec.tables}
+    assert "estimator tangent" in tables["Summary of the sweeps"]
+    tc = tables["Tolerance check of the largest exponents"]
+    for est, rtol in study.TOL_CHECK:
+        assert f"estimator {est}; " in tc and f"rtol {rtol:g}" in tc
+    if source_date_epoch() is None:
+        assert rec.wall_time() >= prov["wall_s"]["total_before_report"]

@@ -9,13 +9,68 @@ import numpy as np
 import pytest
 
 from nld.io import load_table
-from nld.report import Report
+from nld.report import Report, source_date_epoch
 from study_harness import count_pages, run_quick
 
 
+class _Recorder:
+    """Records what the study puts into its Report (captions, the axes of each figure, table notes,
+    the title page's rows) while the quick run writes it."""
+
+    def __init__(self):
+        self.figures, self.tables, self.info = [], [], []
+
+    def __enter__(self):
+        rec = self
+        self._orig = (Report.figure, Report.table, Report._info_lines)
+
+        def figure(rep, fig, caption=None):
+            sup = fig.get_suptitle()
+            axes = [dict(xlim=ax.get_xlim(), ylim=ax.get_ylim(), xlabel=ax.get_xlabel(),
+                         ylabel=ax.get_ylabel(), title=ax.get_title(),
+                         legend=[t.get_text() for t in ax.get_legend().get_texts()] if ax.get_legend() else [])
+                    for ax in fig.axes]
+            rec.figures.append(dict(title=sup, caption=caption or "", axes=axes))
+            return rec._orig[0](rep, fig, caption)
+
+        def table(rep, title, data, col_units=None, **kw):
+            rec.tables.append(dict(title=title, notes=" ".join(kw.get("notes") or []),
+                                   columns=list(getattr(data, "columns", []))))
+            return rec._orig[1](rep, title, data, col_units, **kw)
+
+        def info(rep, epoch):
+            rows = rec._orig[2](rep, epoch)
+            rec.info = rows
+            return rows
+
+        Report.figure, Report.table, Report._info_lines = figure, table, info
+        return self
+
+    def __exit__(self, *exc):
+        Report.figure, Report.table, Report._info_lines = self._orig
+        return False
+
+    def figure(self, words: str) -> dict:
+        hits = [f for f in self.figures if words in f["title"]]
+        assert len(hits) == 1, (words, [f["title"] for f in self.figures])
+        return hits[0]
+
+    def wall_time(self) -> float:
+        row = dict(self.info).get("Wall time", "")
+        return float(row.split(" s")[0]) if row[:1].isdigit() else float("nan")
+
+
 @pytest.fixture(scope="module")
-def quick_run(tmp_path_factory):
-    return run_quick("rhee1996.py", tmp_path_factory)
+def quick_run_rec(tmp_path_factory):
+    """The quick run (once), with what went into the report recorded (see _Recorder)."""
+    with _Recorder() as rec:
+        study, out, pdf = run_quick("rhee1996.py", tmp_path_factory)
+    return study, out, pdf, rec
+
+
+@pytest.fixture(scope="module")
+def quick_run(quick_run_rec):
+    return quick_run_rec[:3]
 
 
 def test_quick_writes_pdf_and_data(quick_run):
@@ -61,3 +116,73 @@ def test_sweep_exponents_match_table(quick_run):
     assert len(sw[sw["index"] == 0]) == study.QUICK["sweep_revs"]
     # friction makes the four-bar regular: the largest coefficient has a smaller exponent than mu = 0
     assert pts["lambda_per_rev"].iloc[-1] < pts["lambda_per_rev"].iloc[0]
+
+
+def test_verdicts_need_the_minimum_section(quick_run):
+    study, out, _ = quick_run
+    summary, _ = load_table(out / "rhee1996_summary.csv")
+    assert study.MIN_SECTION_POINTS > 0
+    for _, r in summary.iterrows():
+        assert r["section_points"] == study.QUICK["section_revs"]
+        lam, unc = r["lambda_per_rev"], r["lambda_unc_per_rev"]
+        expect = ("regular" if lam + unc < 0 else
+                  ("chaotic" if r["section_points"] >= study.MIN_SECTION_POINTS else "λ1 > 0, short")
+                  if lam - unc > 0 else "uncertain")
+        assert r["verdict"] == expect
+    # a short section is never called chaotic
+    assert not ((summary["section_points"] < study.MIN_SECTION_POINTS) & (summary["verdict"] == "chaotic")).any()
+
+
+def test_eccentricity_over_clearance_saved(quick_run):
+    study, out, _ = quick_run
+    sections, _ = load_table(out / "rhee1996_sections.parquet")
+    for name, (_, _, c, _) in study.CASES.items():
+        s = sections[sections["case"] == name]
+        assert np.allclose(s["B.ex/c"], s["B.ex"] / c, rtol=1e-12)
+        assert np.allclose(s["B.ey/c"], s["B.ey"] / c, rtol=1e-12)
+        assert np.hypot(s["B.ex/c"], s["B.ey/c"]).max() <= 1.1
+    sweeps, _ = load_table(out / "rhee1996_sweeps.parquet")
+    ok = sweeps[sweeps["status"] == "ok"]
+    cl = ok[ok["case"] == "clearance"]
+    assert np.allclose(cl["B.ex/c"], cl["B.ex"] / cl["value"].astype(float), rtol=1e-12)
+    fr = ok[ok["case"] == "friction"]
+    assert np.allclose(fr["B.ex/c"], fr["B.ex"] / 0.25e-3, rtol=1e-12)
+    assert ok["B.ex/c"].between(-1.1, 1.1).all() and ok["B.ey/c"].between(-1.1, 1.1).all()
+
+
+def test_figures_compare_and_state_their_estimator(quick_run_rec):
+    study, out, _, rec = quick_run_rec
+    _, prov = load_table(out / "rhee1996_summary.csv")
+    q = study.QUICK
+    period = 2 * np.pi / prov["scene_parameters"]["driver"]["speed"]
+    # every exponent: estimator, tolerance, averaging span and the uncertainty, from the settings
+    for words, revs in (("Poincaré sections", q["lyap_revs"]), ("against the clearance", q["sweep_lyap"]),
+                        ("against the friction", q["sweep_lyap"]), ("Convergence", q["lyap_revs"])):
+        cap = rec.figure(words)["caption"]
+        assert "estimator tangent" in cap and f"rtol {q['rtol']:g}" in cap, words
+        assert f"averaged over {revs:.3g} rev" in cap and "uncertainty:" in cap, words
+    for t in rec.tables:
+        assert "estimator tangent" in t["notes"] and f"rtol {q['rtol']:g}" in t["notes"], t["title"]
+    # sections: e/c, the six panels on the same axes; the minimum count is stated
+    sec = rec.figure("Poincaré sections")
+    assert len({(a["xlim"], a["ylim"]) for a in sec["axes"]}) == 1
+    assert 1.0 < sec["axes"][0]["ylim"][1] < 1.5 and all("/ c" in a["xlabel"] for a in sec["axes"])
+    assert f"fewer than {study.MIN_SECTION_POINTS} points" in sec["caption"]
+    # both sweeps: the same labels, e/c range and λ1 range; x label only under the bottom panel
+    sweeps = [rec.figure("against the clearance"), rec.figure("against the friction")]
+    for f in sweeps:
+        top, bottom = f["axes"]
+        assert top["xlabel"] == "" and "[" in bottom["xlabel"]
+        assert top["ylabel"] == "B.ex / c [−]" and top["ylim"] == sweeps[0]["axes"][0]["ylim"]
+        assert bottom["ylim"] == sweeps[0]["axes"][1]["ylim"]
+    # spectra: one y-range, and the axes reach past every peak the table lists
+    spec = rec.figure("Spectra")
+    assert len({a["ylim"] for a in spec["axes"]}) == 1
+    summary, _ = load_table(out / "rhee1996_summary.csv")
+    top_order = max(float(o) for s in summary["peak_orders"] for o in s.split(","))
+    assert spec["axes"][0]["xlim"][1] >= top_order / period
+    # convergence panels on one y-range
+    assert len({a["ylim"] for a in rec.figure("Convergence")["axes"]}) == 1
+    # the title page's wall time is the whole run's, not the report's
+    if source_date_epoch() is None:
+        assert rec.wall_time() >= prov["compute_wall_s"]
