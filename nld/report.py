@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["PAGE_SIZE", "STYLE", "Report", "save_study_data", "source_date_epoch",
-           "estimator_text", "study_started"]
+           "estimator_text", "study_started", "study_start"]
 
 _STUDY_START: list = [None]
 
@@ -46,6 +46,12 @@ def study_started(t: float | None) -> None:
     """The ``time.perf_counter()`` at which the running study started (``nld study`` sets it), so
     that a Report's title page shows the study's whole wall time, not only the report's own."""
     _STUDY_START[0] = t
+
+
+def study_start() -> float | None:
+    """The ``time.perf_counter()`` set by :func:`study_started` (None outside ``nld study``): a
+    study run directly passes its own start to Report, and this one where it is earlier."""
+    return _STUDY_START[0]
 
 
 def estimator_text(settings: dict | None, method: str | None = None, period: float | None = None) -> str:

@@ -502,7 +502,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     from nld import __version__
     from nld.io import save_table
     from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, source_date_epoch, study_workers
+    from nld.report import Report, save_study_data, study_start, source_date_epoch, study_workers
     from nld.scene import load_scene, scene_to_dict
     from nld.simulate import crank_period
 
@@ -558,7 +558,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     rep = Report(pdf, TITLE, scene=base, provenance=prov, settings=settings,
                  subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
                  subject="Clearance size and friction vs chaos in a four-bar with a clearance joint",
-                 keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov", mode], started=start)
+                 keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov", mode],
+                 started=min(start, study_start() or start))   # nld study: from its own start
     intro, found = _texts(summary, pts_c, pts_f, st, mode_label)
     with rep:
         rep.text_page("What this report reproduces", intro)
