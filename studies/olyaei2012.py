@@ -19,10 +19,13 @@ dynamics with saltation matrices at every contact event) from the end of each se
   tolerance;
 * where chaos sets in: the chaotic windows of each sweep and the interpolated lambda = 0 crossings.
 
-Outputs in ``out_dir``: ``olyaei2012.pdf``; ``olyaei2012.parquet`` (the three sweeps stacked, ``case`` =
-sweep name first, the columns of :func:`nld.bifurcation.load_sweep`); ``olyaei2012_points.csv`` (one row
+Outputs in ``out_dir``: ``olyaei2012.pdf``; ``olyaei2012.parquet`` (the sweeps stacked, ``case`` =
+sweep name first, the columns of :func:`nld.bifurcation.load_sweep` and ``B.ex/c``, ``B.ey/c``: the
+eccentricity over the point's clearance, as plotted); ``olyaei2012_points.csv`` (one row
 per sweep point: value, lambda per revolution +- uncertainty, verdict, detected period);
-``olyaei2012_sections.parquet`` (the two showcase sections, ``case`` = regular / chaotic);
+``olyaei2012_sections.parquet`` (the two showcase sections, ``case`` = regular / chaotic, with
+``B.ex/c``, ``B.ey/c``); a point or state is called chaotic only when lambda - uncertainty > 0 over a
+section of at least MIN_SECTION_POINTS points ('λ1 > 0, short' below that);
 ``olyaei2012_summary.csv`` (per sweep: counts, the largest and smallest exponent, onset; each number
 follows from the points file, which the test checks); ``olyaei2012_tolcheck.csv`` (the largest exponent
 of each sweep recomputed at three tolerances).
@@ -495,11 +498,13 @@ def _fig_state_other(rep, states):
                 # a tight cluster: deviations from its mean point
                 mv, mw = float(tab["slider.vx"].mean()), float(tab["rod.omega"].mean())
                 tab = tab.assign(**{"slider.vx": (tab["slider.vx"] - mv) * 1e6, "rod.omega": (tab["rod.omega"] - mw) * 1e6})
-                poincare_scatter(tab, "slider.vx", "rod.omega", ax=ax, s=6, color="tab:blue")
+                poincare_scatter(tab, "slider.vx", "rod.omega", ax=ax, s=6,
+                                 color=VERDICT_COLORS.get(states[k]["verdict"], "tab:blue"))
                 ax.set_xlabel(f"slider velocity v_x − ({mv:.6g} m/s) [µm/s]")
                 ax.set_ylabel(f"rod angular velocity ω − ({mw:.6g}) [µrad/s]")
             else:
-                poincare_scatter(tab, "slider.vx", "rod.omega", ax=ax, s=6, color="tab:red")
+                poincare_scatter(tab, "slider.vx", "rod.omega", ax=ax, s=6,
+                                 color=VERDICT_COLORS.get(states[k]["verdict"], "tab:red"))
                 ax.set_xlabel("slider velocity v_x [m/s]")
                 ax.set_ylabel("rod angular velocity ω [rad/s]")
             ax.set_title(_state_title(k, states[k]), fontsize=9)

@@ -13,10 +13,15 @@ Effect of the clearance size and of the friction coefficient on the regularity o
   clearance (mu = 0.01) and in the friction coefficient (c = 0.25 mm).
 
 Outputs in ``out_dir``: ``rhee1996.pdf``; ``rhee1996.parquet`` (the sampled runs of the six cases,
-``case`` first); ``rhee1996_sections.parquet`` (section points per case); ``rhee1996_sweeps.parquet``
-(both sweeps, ``sweep`` first, as ``nld.bifurcation.load_sweep``); ``rhee1996_spectra.parquet``;
+``case`` first); ``rhee1996_sections.parquet`` (section points per case, with ``B.ex/c``, ``B.ey/c``:
+the eccentricity over the case's clearance, as plotted); ``rhee1996_sweeps.parquet`` (both sweeps,
+``sweep`` first, as ``nld.bifurcation.load_sweep``, with ``B.ex/c``, ``B.ey/c``); ``rhee1996_spectra.parquet``;
 ``rhee1996_summary.csv`` (the per-case table printed in the report: its max_Fn is the maximum of
 ``B.Fn`` over that case's rows of ``rhee1996.parquet``, its lambda that of the case's exponent).
+
+A case or sweep point is called chaotic only when lambda - uncertainty > 0 over a section of at least
+MIN_SECTION_POINTS points; every exponent in the report states its estimator, tolerance, averaging
+span and uncertainty from the result's own settings.
 """
 from __future__ import annotations
 
@@ -579,11 +584,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
         sw_table = pd.concat([pts_c.assign(sweep="clearance", value=pts_c["value"] * 1e3),
                               pts_f.assign(sweep="friction mu")], ignore_index=True)
         sw_table = sw_table[["sweep", "value", "lambda_per_rev", "lambda_unc_per_rev", "section_points",
-                             "verdict", "period", "status"]].rename(columns={"section_points": "points"})
+                             "verdict", "period", "status"]].rename(
+            columns={"section_points": "points", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc"})
+        se = prov["sweep_estimator"]
+        se_text = (f"λ1 (both sweeps): {se['clearance']}." if se["clearance"] == se["friction"] else
+                   f"λ1 (clearance sweep): {se['clearance']}. λ1 (friction sweep): {se['friction']}.")
         rep.table("Sweeps: largest exponent and section period per point", sw_table,
-                  col_units={"lambda_per_rev": "1/rev", "lambda_unc_per_rev": "1/rev"},
-                  notes=[f"λ1 (clearance sweep): {prov['sweep_estimator']['clearance']}. λ1 (friction sweep): "
-                         f"{prov['sweep_estimator']['friction']}. verdict as in the case table (at least "
+                  col_units={"value": "mm or −", "λ1": "1/rev", "± unc": "1/rev"},
+                  notes=[f"{se_text} verdict as in the case table (at least "
                          f"{MIN_SECTION_POINTS} section points for 'chaotic'). "
                          "value: clearance in mm, or the friction coefficient. period: of the section, "
                          "points repeating to 1e-6 of the clearance (0 = none up to 16). Stored in "
