@@ -269,7 +269,7 @@ class Report:
         with ``- `` is a bullet item; continuation pages are added when the text is long."""
         if isinstance(paragraphs, str):
             paragraphs = [paragraphs]
-        lines = self._wrap(paragraphs, width=145)
+        lines = self._wrap(paragraphs, width=130)   # 145 ran past the right margin (0.955)
         per_page = 30
         chunks = [lines[i:i + per_page] for i in range(0, len(lines), per_page)] or [[]]
         for k, chunk in enumerate(chunks):

@@ -109,3 +109,18 @@ def test_footer_title_never_overlaps_the_page_number(tmp_path):
     assert fig.texts[n_before].get_text().endswith("…")
     import matplotlib.pyplot as plt
     plt.close(fig)
+
+
+def test_text_page_stays_inside_the_right_margin(tmp_path):
+    """Running text wraps so that the longest line ends inside the page margin (at 145 characters
+    per line, long bullets ran past the right edge of an A4 landscape page)."""
+    from pathlib import Path
+    from nld import report
+    rep = report.Report(tmp_path / "t.pdf", "t")
+    words = Path(__file__).resolve().parent.parent.joinpath("docs", "studies.md").read_text()
+    paragraphs = [p.replace("\n", " ") for p in words.split("\n\n")[:40]]
+    rep.text_page("margins", paragraphs)
+    fig = rep._pages[-1]
+    fig.canvas.draw()
+    right = max(t.get_window_extent().x1 for t in fig.texts) / fig.bbox.width
+    assert right <= 1.0 - report._MARGIN
