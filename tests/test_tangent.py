@@ -326,8 +326,6 @@ def _cubic_events(t, y, p, z, g):
     g[1] = (y[0] - p[3]) * (y[0] - p[4])
 
 
-@pytest.mark.xfail(strict=True, reason="issue 13 item 5 open: interior sampling of the event "
-                   "functions is implemented but switched off (docs/lyapunov.md)")
 def test_event_location_finds_every_sign_change_in_a_step():
     """y = t in DOPRI5 steps of 0.1 (exact for y' = 1). g0 has three roots in the step
     [0.3, 0.4] (ends - and +: one crossing seen from the ends, and regula falsi would find the
