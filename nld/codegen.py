@@ -58,7 +58,8 @@ def solver_fingerprint() -> str:
     import hashlib
     from pathlib import Path
     d = Path(__file__).parent / "integrators"
-    return hashlib.sha1(b"".join((d / f).read_bytes() for f in ("dopri5.py", "dop853.py", "rosenbrock.py", "tangent.py"))
+    return hashlib.sha1(b"".join((d / f).read_bytes() for f in ("dopri5.py", "dop853.py", "rosenbrock.py", "tangent.py",
+                                                                "events.py"))
                         ).hexdigest()[:12]
 
 
@@ -500,6 +501,7 @@ def _header() -> list[str]:
         "from nld.friction import coulomb, ambrosio, viscous, slip_velocity",
         "from nld.kernel_support import periodic_table",
         "from nld.integrators.dopri5 import dopri5",
+        "from nld.integrators.events import EVENT_SAMPLES",
         "",
     ]
 
@@ -714,11 +716,12 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         "        observe(ts[i], Y[i], p, zz, rows[i])",
         "",
         "@njit(cache=True)",
-        "def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):",
+        "def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
+        "          event_samples=EVENT_SAMPLES):",
         "    # a module-level wrapper so that numba's disk cache holds the integrator specialised",
         "    # for this kernel (a dispatcher passed from Python is never found in the cache)",
         "    return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
-        "                  max_steps, n_events, max_log)",
+        "                  max_steps, n_events, max_log, event_samples)",
         "",
     ]
     # the other integrators (simulate(method=...)), wrapped the same way; compiled on first use
@@ -727,9 +730,10 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             f"from nld.integrators.{mod} import {fn}",
             "",
             "@njit(cache=True)",
-            f"def solve_{fn}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):",
+            f"def solve_{fn}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
+            "                event_samples=EVENT_SAMPLES):",
             f"    return {fn}(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
-            "                max_steps, n_events, max_log)",
+            "                max_steps, n_events, max_log, event_samples)",
             "",
         ]
     try:
@@ -773,10 +777,10 @@ def tangent_source(rhs_src: str, events_src: str, on_event_src: str) -> list[str
         "",
         "@njit(cache=True)",
         "def solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,",
-        "                  n_events, tangent_err, want_div, diag, logs):",
+        "                  n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES):",
         "    return dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,",
         "                          y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,",
-        "                          n_events, tangent_err, want_div, diag, logs)",
+        "                          n_events, tangent_err, want_div, diag, logs, event_samples)",
         "",
     ]
     return out

@@ -88,8 +88,11 @@ CASES: dict[str, HardCase] = {
         "slider_crank", ('joints.B.friction.law="coulomb"', "joints.B.friction.mu=0.05"), 5.0, 1e-8,
         "dopri5", "success",
         "Coulomb friction f = 0.05, slip reversals inside contacts",
-        quick_revs=1.0, ref_method="dopri5", ref_rtol=1e-11, ref_revs=0.5, ref_bound=1e-7,
+        quick_revs=1.0, ref_method="dopri5", ref_rtol=1e-11, ref_revs=0.5, ref_bound=3e-7,
         check="slip_reversal", check_bound=2, samples_per_rev=7200),
+    # ref_bound: the rtol 1e-8 run's journal error on 0.5 rev scatters 1.3e-8 ... 2.1e-7 m over
+    # rtol 0.7e-8 ... 1.3e-8 and event_samples 0 ... 6 (21 runs; the references at rtol 1e-11,
+    # 1e-12 and dop853 1e-12 agree to 2e-10 m whatever the sampling): 1e-7 was one lucky draw
     # (almost) no gravity, 0.01 mm clearance, a crawling crank (1 rad/s) and K = 1e12: the journal
     # drifts across the clearance under the tiny inertia forces and barely touches: ~110 contacts
     # of 0.08-0.35 ms with peak penetrations of at most 35 nm. Every one must be found (a missed

@@ -259,8 +259,8 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
              overrides=None, y0=None, z0=None, t0: float = 0.0, land: bool = False,
              max_steps: int = 50_000_000, hmax: float | None = None, kernel: Kernel | None = None,
              raise_on_failure: bool = False, method: str | None = None,
-             chunk_revs: float | None = DEFAULT_CHUNK_REVS, progress: bool | None = None
-             ) -> SimulationResult:
+             chunk_revs: float | None = DEFAULT_CHUNK_REVS, progress: bool | None = None,
+             event_samples: int | None = None) -> SimulationResult:
     """Simulate a scene with the adaptive Dormand-Prince 5(4) integrator (or ``method``).
 
     scene: a Scene, a built-in name or a TOML path (``overrides`` as for ``nld --set``).
@@ -279,12 +279,18 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     ``partial`` is the result so far (status ``INTERRUPTED``, table up to there).
     progress: a progress bar in crank revolutions on stderr (None: only when stderr is a terminal
     and the run takes more than 2 s; see ``nld.progress``).
+    event_samples: interior points of every step's dense output at which the event functions
+    (contact gaps, load switches) are evaluated, so that a contact lost and regained within one
+    step is located (None: ``nld.integrators.EVENT_SAMPLES``, 3; 0: the step's ends only, nld's
+    behaviour before issue 13; docs/integrator.md, "Events"). Native methods only.
     """
     from .integrators.dopri5 import status_message
     from .scene import load_scene
     check_scene_arg(scene)
     _check_run_args(t_end=t_end, revs=revs, samples_per_rev=samples_per_rev, t0=t0,
                     chunk_revs=chunk_revs, max_steps=max_steps, hmax=hmax)
+    from .integrators.events import EVENT_SAMPLES, check_event_samples
+    event_samples = EVENT_SAMPLES if event_samples is None else check_event_samples(event_samples)
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides)
     elif overrides:
@@ -378,7 +384,8 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         out = integrate_chunked(solve, float(t0), np.ascontiguousarray(y0, dtype=float), t_eval,
                                 bool(land), p, z, float(rtol), atol, float(hmax), int(max_steps),
                                 int(n_ev), max_log, span, progress=progress,
-                                period=_period_or_none(scene), desc=f"simulate {scene.name}")
+                                period=_period_or_none(scene), desc=f"simulate {scene.name}",
+                                event_samples=event_samples)
         interrupted = out[-1]
         out = out[:-1]
         status, t_reached, Y, n_out, st, ev_t, ev_k, ev_dir, n_logged, Z = out
@@ -409,6 +416,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     table = pd.DataFrame(rows, columns=kern.columns, copy=False)    # no transposing copy (1 s per 10^6 rows)
     table.insert(0, "t", t_eval[: len(rows)])
     prov = provenance(scene, kern, rtol=rtol, t_end=t_end, wall=wall, integrator=method)
+    prov["event_samples"] = int(event_samples)
     if interrupted and status != INTERRUPTED and n_out < len(t_eval):
         status = INTERRUPTED
         message = interrupted_message(t_reached, t0, t_end, n_out, len(t_eval), scene)
@@ -435,10 +443,12 @@ def _chunk_span(chunk_revs, scene: Scene, t0: float, t_end: float, hmax: float) 
 
 
 def integrate_chunked(solve, t0, y0, t_eval, land, p, z, rtol, atol, hmax, max_steps, n_events,
-                      max_log, span, *, progress=None, period=None, desc="simulate"):
-    """``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log)``
-    (a kernel's compiled integrator) from t0 to t_eval[-1] in chunks of ``span`` s of simulated
-    time, with SIGINT deferred (``nld.interrupt.deferred``).
+                      max_log, span, *, progress=None, period=None, desc="simulate",
+                      event_samples=None):
+    """``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+    event_samples)`` (a kernel's compiled integrator) from t0 to t_eval[-1] in chunks of ``span``
+    s of simulated time, with SIGINT deferred (``nld.interrupt.deferred``). ``event_samples``
+    None: the integrator's default (``solve`` is then called with 13 arguments).
 
     Returns the integrator's tuple ``(status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir,
     n_ev, Z)`` for the whole run, plus ``interrupted`` (bool): on Ctrl-C the loop stops after the
@@ -488,7 +498,11 @@ def integrate_chunked(solve, t0, y0, t_eval, land, p, z, rtol, atol, hmax, max_s
                 te = np.append(te, b)
             te = np.ascontiguousarray(te)
             log_k = max(1, min(max_log - len(ev_t), CHUNK_LOG))
-            out = solve(t, y, te, land, p, z, rtol, atol, h0, hmax, steps_left, n_events, log_k)
+            if event_samples is None:
+                out = solve(t, y, te, land, p, z, rtol, atol, h0, hmax, steps_left, n_events, log_k)
+            else:
+                out = solve(t, y, te, land, p, z, rtol, atol, h0, hmax, steps_left, n_events, log_k,
+                            int(event_samples))
             st_k, t_k, Y_k, n_k, stats_k, evt_k, evk_k, evd_k, nlog_k, Z_k = out
             n_k = int(n_k)
             stats_k = np.asarray(stats_k, dtype=np.int64)

@@ -42,6 +42,7 @@ from .errors import InputError, SolveError
 from .integrators.dop853 import dop853
 from .integrators import method_status_message
 from .integrators.dopri5 import dopri5, no_events, no_on_event
+from .integrators.events import EVENT_SAMPLES, check_event_samples
 from .integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
@@ -65,6 +66,20 @@ def _as_vector(x, what: str) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise InputError(f"{what} = {a!r}: must be finite")
     return a
+
+
+def _takes_event_samples(solve) -> bool:
+    """Whether a ``solve=`` wrapper accepts event_samples as a 14th argument."""
+    import inspect
+    fn = getattr(solve, "py_func", solve)
+    try:
+        params = list(inspect.signature(fn).parameters.values())
+    except (TypeError, ValueError):
+        return False
+    if any(q.kind is inspect.Parameter.VAR_POSITIONAL for q in params):
+        return True
+    return len([q for q in params if q.kind in (inspect.Parameter.POSITIONAL_ONLY,
+                                                 inspect.Parameter.POSITIONAL_OR_KEYWORD)]) >= 14
 
 
 def _scales(scales, n: int) -> np.ndarray:
@@ -92,8 +107,10 @@ class ContinuousSystem:
     z0:     initial discrete state (default empty); events/on_event/n_events: as for
             ``nld.integrators.dopri5`` (default none).
     solve:  optional ``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
-            n_events, max_log)``, a ``@njit(cache=True)`` wrapper of dopri5 with this system's
-            functions (as ``Kernel.module.solve``), so the integrator loads from numba's cache.
+            n_events, max_log[, event_samples])``, a ``@njit(cache=True)`` wrapper of dopri5
+            with this system's functions (as ``Kernel.module.solve``), so the integrator loads
+            from numba's cache. A wrapper without ``event_samples`` runs the integrator's
+            default and refuses another ``event_samples``.
     hmax:   step cap (s); default period/20 for a forced system, else none.
     time_unit: unit of t (default "s"): exponents are reported per time_unit.
     t0:     the time of y0 (default 0); analyses start there (the forcing phase of a forced
@@ -114,6 +131,11 @@ class ContinuousSystem:
             with the state at each renormalisation); default none. Scenes set them.
     period_name: what one period is called in results ("forcing period"; a scene:
             "revolution").
+    event_samples: interior points of every step's dense output at which the event functions
+            are evaluated, so that two sign changes within one step are both located (default
+            ``nld.integrators.EVENT_SAMPLES``, 3; 0: the step's ends only;
+            docs/integrator.md, "Events"). Used by every integration of the system (advance,
+            the Lyapunov estimators, Poincare sections).
     """
 
     is_map = False
@@ -124,8 +146,10 @@ class ContinuousSystem:
                  period: float | None = None, *, z0=None, events=None, on_event=None,
                  n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
                  t0: float = 0.0, method: str = "dopri5", jacobian=None, jvp: str = "auto",
-                 memory=(), period_name: str = "forcing period"):
+                 memory=(), period_name: str = "forcing period", event_samples: int | None = None):
         self.method = _check_system_method(method)
+        self.event_samples = (EVENT_SAMPLES if event_samples is None
+                              else check_event_samples(event_samples))
         if jvp not in ("auto", "autodiff", "fd"):
             raise InputError(f"jvp = {jvp!r}: must be 'auto', 'autodiff' or 'fd'")
         self.jacobian = jacobian
@@ -152,6 +176,11 @@ class ContinuousSystem:
         if self.n_events and events is None:
             raise InputError(f"n_events = {n_events}: give the events function too")
         self._solve = solve
+        self._solve_samples = solve is None or _takes_event_samples(solve)
+        if not self._solve_samples and self.event_samples != EVENT_SAMPLES:
+            raise InputError(f"event_samples = {event_samples!r}: the solve= wrapper takes 13 "
+                             f"arguments; add event_samples as its 14th and pass it on to the "
+                             f"integrator")
         if hmax is None:
             hmax = self.period / 20.0 if self.period is not None else 0.0
         self.hmax = float(hmax)
@@ -170,13 +199,20 @@ class ContinuousSystem:
         return np.ascontiguousarray(rtol * self.scales, dtype=float)
 
     def solve(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
-              max_log):
+              max_log, event_samples=None):
         """The system's integrator (``method``) with this system's functions (arguments and
-        results as ``nld.integrators.dopri5.dopri5``)."""
+        results as ``nld.integrators.dopri5.dopri5``; event_samples None: the system's)."""
         if self._solve is None:
             self._solve = _make_solver(self.rhs, self.events, self.on_event, self.method)
+        m = self.event_samples if event_samples is None else check_event_samples(event_samples)
+        if not self._solve_samples:
+            if m != EVENT_SAMPLES:
+                raise InputError(f"event_samples = {m!r}: the solve= wrapper of {self.name} takes "
+                                 f"13 arguments; add event_samples as its 14th")
+            return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
+                               n_events, max_log)
         return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
-                           n_events, max_log)
+                           n_events, max_log, m)
 
     def __repr__(self):
         per = "" if self.period is None else f", period={self.period:.6g} {self.time_unit}"
@@ -194,19 +230,22 @@ def _make_solver(rhs, events, on_event, method: str = "dopri5"):
     closure it never touches the cache."""
     if method == "dop853":
         @njit
-        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+                  event_samples):
             return dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                          hmax, max_steps, n_events, max_log)
+                          hmax, max_steps, n_events, max_log, event_samples)
     elif method == "rodas":
         @njit
-        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+                  event_samples):
             return rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                         hmax, max_steps, n_events, max_log)
+                         hmax, max_steps, n_events, max_log, event_samples)
     else:
         @njit
-        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
+        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+                  event_samples):
             return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                          hmax, max_steps, n_events, max_log)
+                          hmax, max_steps, n_events, max_log, event_samples)
     return solve
 
 
@@ -357,9 +396,9 @@ def _builtin_rhs(t, y, p, z, dy):
 
 @njit(cache=True)
 def _solve_builtin(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
-                   max_log):
+                   max_log, event_samples):
     return dopri5(_builtin_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol,
-                  h0, hmax, max_steps, n_events, max_log)
+                  h0, hmax, max_steps, n_events, max_log, event_samples)
 
 
 class _BuiltinSolve:
@@ -369,12 +408,12 @@ class _BuiltinSolve:
         self.code = float(code)
 
     def __call__(self, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
-                 max_log):
+                 max_log, event_samples=EVENT_SAMPLES):
         pp = np.empty(p.shape[0] + 1)
         pp[0] = self.code
         pp[1:] = p
         return _solve_builtin(t0, y0, t_eval, land, pp, z, rtol, atol, h0, hmax, max_steps,
-                              n_events, max_log)
+                              n_events, max_log, int(event_samples))
 
 
 def lorenz(sigma: float = 10.0, rho: float = 28.0, beta: float = 8.0 / 3.0,
@@ -483,7 +522,7 @@ def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
 
 # ---------------------------------------------------------------- scenes
 def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
-                method: str = "dopri5") -> ContinuousSystem:
+                method: str = "dopri5", event_samples: int | None = None) -> ContinuousSystem:
     """A mechanism scene as a :class:`ContinuousSystem`.
 
     scene_or_name: a Scene, a built-in scene name or a TOML path; overrides as for
@@ -495,6 +534,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     ``kernel``. method: the analyses' integrator, "dopri5" (default, whatever the scene's
     ``[scene] method``: analysis results do not change with a scene file's recommendation),
     "dop853" or "rodas" (the kernel's disk-cached ``solve_dop853`` / ``solve_rodas``).
+    event_samples: as for :class:`ContinuousSystem` (default 3 interior samples per step).
     """
     from .kernel import compile_scene
     from .scene import load_scene
@@ -526,7 +566,8 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
                             state_scales(kern, q), period, z0=z0, events=mod.events,
                             on_event=mod.on_event, n_events=kern.n_events, solve=solve,
-                            method=method, memory=memory, period_name="revolution")
+                            method=method, memory=memory, period_name="revolution",
+                            event_samples=event_samples)
     sysm.scene = scene
     sysm.kernel = kern
     sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)

@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError, SolveError
+from .integrators.events import EVENT_SAMPLES
 from .integrators.tangent import (DG_DIV, DG_EVENTS, DG_GRAZE, DG_LOGDET, DG_MINRATIO, DG_SALT,
                                   DG_SIMUL, DG_UP, N_DIAG, dopri5_tangent)
 
@@ -119,10 +120,11 @@ def no_on_event_jvp(k, direction, t, y, p, z, td, yd, zd):
 
 @njit(cache=True)
 def _solve_tangent_builtin(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
-                           n_events, tangent_err, want_div, diag, logs):
+                           n_events, tangent_err, want_div, diag, logs, event_samples):
     return dopri5_tangent(_builtin_rhs, _builtin_rhs_jvp, no_events, no_events_jvp, no_on_event,
                           no_on_event_jvp, t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0,
-                          hmax, max_steps, n_events, tangent_err, want_div, diag, logs)
+                          hmax, max_steps, n_events, tangent_err, want_div, diag, logs,
+                          event_samples)
 
 
 class _BuiltinTangent:
@@ -250,10 +252,10 @@ def tangent_functions(system):
 
         @njit
         def solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
-                          n_events, tangent_err, want_div, diag, logs):
+                          n_events, tangent_err, want_div, diag, logs, event_samples):
             return dopri5_tangent(rhs, rhs_jvp, ev, ev_jvp, oe, oe_jvp, t0, y0, z, W, Wz, marks,
                                   p, rtol, atol, scales, h0, hmax, max_steps, n_events,
-                                  tangent_err, want_div, diag, logs)
+                                  tangent_err, want_div, diag, logs, event_samples)
         res = (solve_tangent, how)
     system._tangent_solver = res
     return res
@@ -283,7 +285,8 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
     atol = system.tolerance(rtol)
     out = solve(float(t0), y, z, W, Wz, marks, system.p, float(rtol), atol, system.scales,
                 float(h0), float(system.hmax), int(max_steps), int(system.n_events),
-                bool(tangent_err), bool(want_div), dg, logs)
+                bool(tangent_err), bool(want_div), dg, logs,
+                int(getattr(system, "event_samples", EVENT_SAMPLES)))
     status, t_reached, y_out, n_done, stats, h_next = out
     if status not in (0, 1):
         from .integrators import method_status_message

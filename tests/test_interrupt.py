@@ -129,9 +129,13 @@ def _eccentricity_error(a, b, col, c):
 
 def test_chunked_integration_agrees_with_one_call_to_the_tolerance():
     """slider_crank (chaotic: errors grow) over 2 revolutions at rtol 1e-8, in chunks of a quarter
-    revolution against one integrator call: the difference (measured 2.5e-4 of the clearance) is
-    below the error of either run against a run at rtol 1e-11 (1.1e-3), and the contact events
-    are the same to 1e-7 s."""
+    revolution against one integrator call: the two are equally good realisations of the
+    tolerance. Measured over event_samples 0 ... 5 and chunks of 0.2, 0.25, 0.5 revolution: one
+    call 4e-4 ... 5.3e-3 of the clearance from a run at rtol 1e-11, chunked 8e-5 ... 4.4e-3, the
+    two 1.3e-4 ... 3.5e-3 apart (which of them is closer to the reference is chance: the ratio
+    of their difference to the one-call error ranged 0.11 ... 5.4). Asserted: both within 1e-2
+    of the clearance, chunked no worse than 5 x one call, and the same contact events, their
+    times to 1e-6 s (1e-4 revolution; up to 1.1e-7 s apart by the second revolution)."""
     c = nld.load_scene("slider_crank").joints["B"].clearance
     kw = dict(revs=2, rtol=1e-8, samples_per_rev=720)
     one = nld.simulate("slider_crank", chunk_revs=None, **kw)
@@ -140,13 +144,13 @@ def test_chunked_integration_agrees_with_one_call_to_the_tolerance():
     assert one.success and chunked.success
     err = _eccentricity_error(one, ref, "B.ex", c)
     diff = _eccentricity_error(chunked, one, "B.ex", c)
-    assert 0 < diff < 0.5 * err, (diff, err)
-    assert _eccentricity_error(chunked, ref, "B.ex", c) < 1.5 * err
-    assert diff < 1e-3                   # of the clearance
+    err_chunked = _eccentricity_error(chunked, ref, "B.ex", c)
+    assert 0 < diff < 1e-2 and err < 1e-2, (diff, err)       # of the clearance
+    assert err_chunked < max(5 * err, 2e-3), (err_chunked, err)
     e1, e2 = one.events, chunked.events
     assert len(e1) == len(e2) > 10
     assert list(e1["direction"]) == list(e2["direction"]) and list(e1["joint"]) == list(e2["joint"])
-    np.testing.assert_allclose(e2["t"].to_numpy(), e1["t"].to_numpy(), rtol=0, atol=1e-7)
+    np.testing.assert_allclose(e2["t"].to_numpy(), e1["t"].to_numpy(), rtol=0, atol=1e-6)
     # the statistics add up over the chunks (about as many steps as one call)
     assert 0.9 * one.stats["accepted"] <= chunked.stats["accepted"] <= 1.1 * one.stats["accepted"]
     np.testing.assert_array_equal(chunked.table["t"], one.table["t"])
@@ -154,8 +158,10 @@ def test_chunked_integration_agrees_with_one_call_to_the_tolerance():
 
 def test_chunked_stroboscopic_section_of_a_periodic_orbit_is_unchanged():
     """four_bar at 10 rad/s (a period-1 orbit; at its default speed it is chaotic): section points
-    (landing on t = kT) of a run in chunks of one revolution equal those of one call to well
-    below the integration error at rtol 1e-10 (measured: 2e-8 against 4e-7 of the clearance)."""
+    (landing on t = kT) of a run in chunks of one revolution equal those of one call to the
+    integration error at rtol 1e-10: measured 1.9e-8 apart with the step's ends only
+    (event_samples 0; one call 6.9e-7 of the clearance from rtol 1e-12), 2.4e-8 with the
+    default interior samples (one call 1.9e-8 from rtol 1e-12, chunked 3.4e-8)."""
     sc = nld.load_scene("four_bar", ["driver.speed=10"])
     c = sc.joints["B"].clearance
     T = 2 * np.pi / abs(sc.driver.speed)
@@ -168,7 +174,7 @@ def test_chunked_stroboscopic_section_of_a_periodic_orbit_is_unchanged():
     def dist(x, y):
         return float(np.max(np.abs(x.table[["B.ex", "B.ey"]].to_numpy()
                                    - y.table[["B.ex", "B.ey"]].to_numpy()))) / c
-    assert dist(a, b) < 0.2 * dist(b, ref) and dist(b, ref) < 1e-5
+    assert dist(a, b) < 1e-7 and dist(a, ref) < 3 * dist(b, ref) and dist(b, ref) < 1e-5
 
 
 def test_interrupted_partial_result_api_shape():

@@ -21,11 +21,10 @@ Statuses: those of dopri5, plus ``STIFF = -6`` from Hairer's stiffness detection
 going on with a noisy, possibly wrong stiff component (seen on heavily damped persistent contact);
 use the stiff solver ``rodas``.
 
-This module also holds the method-independent event and output helpers shared with
-:mod:`nld.integrators.rosenbrock`: ``locate_event`` (Illinois root finding on any dense output
-given as an ``interp(theta, cont, out)`` function), ``find_crossings``, ``set_unknown_signs``,
-``fire_events`` and ``write_outputs``. They follow dopri5's event semantics exactly (tracked
-signs, left end moved off a just-fired root, earliest root wins, step retaken to land on it).
+Events are located by :mod:`nld.integrators.events` (shared by every integrator: interior
+samples of the dense output, Illinois, earliest root wins, step retaken to land on it). This
+module also holds the output helpers shared with :mod:`nld.integrators.rosenbrock`
+(``write_outputs``, ``initial_step``).
 
 Caching: as for dopri5, ``dop853`` and the helpers that take user functions are
 ``inline='always'``; call ``dop853`` from an ``@njit(cache=True)`` wrapper whose
@@ -37,7 +36,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .dopri5 import EPS, MAX_NONFINITE, ROOT_MAXITER, ROOT_RTOL, rweight
+from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, rweight
+from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
+                     set_unknown_signs)
 
 # ---------------------------------------------------------------- Hairer's DOP853 coefficients
 # Rows 0..11: the 12 stages; row 12: the 8th-order weights B (the FSAL point, K[12] =
@@ -233,99 +234,6 @@ MAX_RELOCATE = 8    # event location: retakes of a step to land on a root (see d
 
 
 # ================================================================ shared event / output helpers
-@njit(cache=True)
-def set_unknown_signs(g, sgn):
-    """Give every event whose tracked sign is still undetermined (0) the sign of g_k."""
-    for k in range(g.shape[0]):
-        if sgn[k] == 0:
-            if g[k] > 0.0:
-                sgn[k] = 1
-            elif g[k] < 0.0:
-                sgn[k] = -1
-
-
-@njit(cache=True)
-def find_crossings(gnew, sgn, crossed):
-    """crossed[k] = g_k left the side it is tracked on; returns whether any did."""
-    any_crossed = False
-    for k in range(gnew.shape[0]):
-        crossed[k] = sgn[k] != 0 and gnew[k] * sgn[k] <= 0.0
-        if crossed[k]:
-            any_crossed = True
-    return any_crossed
-
-
-@njit(cache=True, inline='always')
-def locate_event(events, interp, k, s, t, h, t_new, gl, gr, cont, yint, gtmp, p, z, tol):
-    """Illinois (modified regula falsi) for g_k on the dense output ``interp(theta, cont, out)``
-    of the step [t, t_new] (h = t_new - t); same contract as ``dopri5._locate``.
-
-    ``s`` is the tracked sign of g_k, gr = g_k(t_new) is on the other side or 0. Returns the
-    bracket end on the new side, i.e. at most ``tol`` after the root. If gl = g_k(t) is not
-    strictly on side s (just after an event at t), the left end is moved to the first of
-    t + tol*4^j where g_k is on side s; if there is none, the crossing is "now" and t is
-    returned."""
-    if gr == 0.0:
-        return t_new
-    a = t
-    fa = gl
-    if gl * s <= 0.0:
-        d = tol
-        while True:
-            a = t + d
-            if a >= t_new:
-                return t
-            interp((a - t) / h, cont, yint)
-            events(a, yint, p, z, gtmp)
-            fa = gtmp[k]
-            if fa * s > 0.0:
-                break
-            d *= 4.0
-    b = t_new
-    fb = gr
-    side = 0
-    for _ in range(ROOT_MAXITER):
-        if b - a <= tol or b - a <= 4.0 * EPS * abs(b):
-            break
-        c = b - fb * (b - a) / (fb - fa)
-        if not (c > a and c < b):
-            c = 0.5 * (a + b)
-        interp((c - t) / h, cont, yint)
-        events(c, yint, p, z, gtmp)
-        fc = gtmp[k]
-        if fc == 0.0:
-            return c
-        if fc * fb > 0.0:          # c is on b's side: b moves, a is retained
-            b = c
-            fb = fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:                      # c is on a's side (or fc is NaN): a moves
-            a = c
-            fa = fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
-    return b
-
-
-@njit(cache=True, inline='always')
-def earliest_root(events, interp, crossed, sgn, t, h, t_c, gcur, gnew, cont, yint, gtmp, p, z,
-                  tol, troot):
-    """The earliest root in (t, t_c] of the event functions flagged in ``crossed``, each located
-    by ``locate_event`` on the dense output of [t, t + h] (roots stored in ``troot``); t_c when
-    none is earlier."""
-    t_star = t_c
-    for k in range(crossed.shape[0]):
-        if crossed[k]:
-            troot[k] = locate_event(events, interp, k, sgn[k], t, h, t_c, gcur[k], gnew[k], cont,
-                                    yint, gtmp, p, z, tol)
-            if troot[k] < t_star:
-                t_star = troot[k]
-    return t_star
-
-
 @njit(cache=True, inline='always')
 def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
     """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output (step length h).
@@ -342,26 +250,6 @@ def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
         Zo[i_out, :] = z
         i_out += 1
     return i_out
-
-
-@njit(cache=True, inline='always')
-def fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t, ev_k, ev_dir,
-                n_ev, max_log):
-    """Call on_event for every crossing whose root is within tol of t_star, log it and flip its
-    tracked sign. Returns (stop, n_ev)."""
-    stop = False
-    for k in range(crossed.shape[0]):
-        if crossed[k] and troot[k] <= t_star + tol:
-            direction = -sgn[k]
-            if n_ev < max_log:
-                ev_t[n_ev] = t
-                ev_k[n_ev] = k
-                ev_dir[n_ev] = direction
-            n_ev += 1
-            sgn[k] = direction
-            if on_event(k, direction, t, y, p, z) == 1:
-                stop = True
-    return stop, n_ev
 
 
 @njit(cache=True, inline='always')
@@ -517,7 +405,7 @@ def interp(theta, cont, out):
 
 @njit(cache=True, inline='always')
 def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-           max_steps, n_events, max_log):
+           max_steps, n_events, max_log, event_samples=EVENT_SAMPLES):
     """Adaptive DOP853 from t0 to t_eval[-1]; same arguments, results and statuses as dopri5.
 
     returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
@@ -526,6 +414,9 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     underflow, -3 non-finite values, -6 the problem became stiff (Hairer's stiffness detection:
     15 steps at the stability limit; an explicit method would go on with noisy, possibly wrong
     stiff components: use rodas). stats = [steps, accepted, rejected, rhs evals, events].
+    event_samples: interior samples of every step's dense output scanned for event sign changes
+    (nld.integrators.events); with event_samples > 0 and events, every accepted step computes
+    its dense output (3 more rhs evaluations).
     """
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
@@ -556,7 +447,9 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     gcur = np.empty(ne)
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
+    gw = np.empty((4, ne))
     sgn = np.zeros(ne, dtype=np.int64)
+    troot_a = np.empty(ne)
     troot = np.empty(ne)
     crossed = np.zeros(ne, dtype=np.bool_)
 
@@ -671,13 +564,30 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
         # ------------------------------------------------ event detection
         have_event = False
+        dense_done = False
+        tol = ROOT_RTOL * max(1.0, abs(t_new))
+        t_star = t_new
         if ne > 0:
             events(t_new, ynew, p, z, gnew)
-            have_event = find_crossings(gnew, sgn, crossed)
+            if event_samples > 0 or find_crossings(gnew, sgn, crossed):
+                _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
+                nfev += 3
+                if not _all_finite(cont):
+                    # the extra stages of the dense output met a force the 12 stages of the
+                    # step did not see (a contact inside the step): the step is not trusted
+                    n_acc -= 1
+                    n_rej += 1
+                    reject = True
+                    h = 0.5 * h
+                    continue
+                dense_done = True
+                have_event, a_star, t_star, first = locate_earliest(
+                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
             if i_out < n_eval and t_eval[i_out] <= t_new:
-                if t_eval[i_out] < t_new:
+                if t_eval[i_out] < t_new and not dense_done:
                     _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
                     nfev += 3
                     if not _all_finite(cont):
@@ -700,29 +610,24 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             continue
 
         # ------------------------------------------------ event location
-        # Locate the earliest root on the dense output of [t, t_c], retake the step from t to
-        # land on it, and check the retaken (accurate) end state: the dense output of a step
-        # that straddles a contact onset can be poor, so the root may be late (the retaken step
-        # would cross the event unchecked) or early (the event has not happened yet).
+        # The earliest root t_star is located on the dense output of [t, t_c]; retake the step
+        # from t to land on it, and check the retaken (accurate) step: the dense output of a
+        # step that straddles a contact onset can be poor, so the root may be late (the retaken
+        # step would cross the event unchecked) or early (the event has not happened yet).
         # Iterate on the retaken step until the root is at its end (at most MAX_RELOCATE).
-        _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
-        nfev += 3
-        if not _all_finite(cont):
-            n_acc -= 1
-            n_rej += 1
-            reject = True
-            h = 0.5 * h
-            continue
-        tol = ROOT_RTOL * max(1.0, abs(t_new))
         t_c = t_new             # end of the current step, state ynew
         h_c = h
         dense_h = h             # cont is the dense output of [t, t + dense_h]
         dense_ok = True         # ... and belongs to the current step
         fire = True
-        t_star = t_c
-        for _ in range(MAX_RELOCATE):
-            t_star = earliest_root(events, interp, crossed, sgn, t, dense_h, t_c, gcur, gnew, cont,
-                                   yint, gtmp, p, z, tol, troot)
+        for it in range(MAX_RELOCATE):
+            if it > 0:
+                found, a_star, t_star, first = locate_earliest(
+                    events, interp, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
+                    gtmp, gw, p, z, tol, crossed, troot_a, troot)
+                if not found:
+                    fire = False     # the event comes later: t_c is a plain step end
+                    break
             if t_star <= t or t_star >= t_c - tol:
                 break
             interp((t_star - t) / dense_h, cont, yint)
@@ -741,7 +646,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             h_c = t_star - t
             dense_ok = False
             events(t_c, ynew, p, z, gnew)
-            if not find_crossings(gnew, sgn, crossed):
+            if event_samples == 0 and not find_crossings(gnew, sgn, crossed):
                 fire = False         # the event comes later: t_c is a plain step end
                 break
             _dense(rhs, t, h_c, y, ynew, K, ytmp, cont, p, z)

@@ -89,9 +89,8 @@ FACC2 = 1.0 / FACMAX
 FACOLD0 = 1.0e-4
 MAX_NONFINITE = 50
 
-EPS = 2.220446049250313e-16
-ROOT_RTOL = 1.0e-12
-ROOT_MAXITER = 200
+from .events import (EPS, EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
+                     fire_events, locate_earliest, set_unknown_signs)
 
 
 # ---------------------------------------------------------------- kernels
@@ -157,31 +156,28 @@ def _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol):
 
 
 @njit(cache=True)
-def _dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5):
-    """Hairer's continuous extension: y(t+th*h) = y + th*(r2 + (1-th)*(r3 + th*(r4 + (1-th)*r5)))."""
+def dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont):
+    """Hairer's continuous extension in cont = [y, r2, r3, r4, r5]:
+    y(t+th*h) = y + th*(r2 + (1-th)*(r3 + th*(r4 + (1-th)*r5)))."""
     n = y.shape[0]
     for i in range(n):
         ydiff = ynew[i] - y[i]
         bspl = h * k1[i] - ydiff
-        r2[i] = ydiff
-        r3[i] = bspl
-        r4[i] = ydiff - h * k7[i] - bspl
-        r5[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i]
-                     + D7 * k7[i])
+        cont[0, i] = y[i]
+        cont[1, i] = ydiff
+        cont[2, i] = bspl
+        cont[3, i] = ydiff - h * k7[i] - bspl
+        cont[4, i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i]
+                          + D7 * k7[i])
 
 
 @njit(cache=True)
-def _interp(theta, y, r2, r3, r4, r5, out):
+def interp(theta, cont, out):
+    """Dense output y(t + theta h) from cont = [y, r2, r3, r4, r5] (Hairer's CONTD5)."""
     th1 = 1.0 - theta
-    for i in range(y.shape[0]):
-        out[i] = y[i] + theta * (r2[i] + th1 * (r3[i] + theta * (r4[i] + th1 * r5[i])))
-
-
-@njit(cache=True)
-def _interp_row(theta, y, r2, r3, r4, r5, Y, row):
-    th1 = 1.0 - theta
-    for i in range(y.shape[0]):
-        Y[row, i] = y[i] + theta * (r2[i] + th1 * (r3[i] + theta * (r4[i] + th1 * r5[i])))
+    for i in range(out.shape[0]):
+        out[i] = cont[0, i] + theta * (cont[1, i] + th1 * (cont[2, i] + theta * (
+            cont[3, i] + th1 * cont[4, i])))
 
 
 @njit(cache=False, inline='always')
@@ -218,65 +214,13 @@ def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
 
 
 @njit(cache=False, inline='always')
-def _locate(events, k, s, t, h, t_new, gl, gr, y, r2, r3, r4, r5, yint, gtmp, p, z, tol):
-    """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t_new].
-
-    ``s`` is the tracked sign of g_k (the side it is on), gr = g_k(t_new) is on the other
-    side or 0. Returns the bracket end on the new side, i.e. at most ``tol`` after the root.
-
-    If gl = g_k(t) is not strictly on side s (just after an event at t, g_k(t) is zero up
-    to round-off and may lie on either side), the left end is moved to the first of
-    t + tol*4^j (j = 0, 1, ...) where g_k is on side s; if there is none, the crossing is
-    "now" and t is returned."""
-    if gr == 0.0:
-        return t_new
-    a = t
-    fa = gl
-    if gl * s <= 0.0:
-        d = tol
-        while True:
-            a = t + d
-            if a >= t_new:
-                return t
-            _interp((a - t) / h, y, r2, r3, r4, r5, yint)
-            events(a, yint, p, z, gtmp)
-            fa = gtmp[k]
-            if fa * s > 0.0:
-                break
-            d *= 4.0
-    b = t_new
-    fb = gr
-    side = 0
-    for _ in range(ROOT_MAXITER):
-        if b - a <= tol or b - a <= 4.0 * EPS * abs(b):
-            break
-        c = b - fb * (b - a) / (fb - fa)
-        if not (c > a and c < b):
-            c = 0.5 * (a + b)
-        _interp((c - t) / h, y, r2, r3, r4, r5, yint)
-        events(c, yint, p, z, gtmp)
-        fc = gtmp[k]
-        if fc == 0.0:
-            return c
-        if fc * fb > 0.0:          # c is on b's side: b moves, a is retained
-            b = c
-            fb = fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:                      # c is on a's side (or fc is NaN): a moves
-            a = c
-            fa = fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
-    return b
-
-
-@njit(cache=False, inline='always')
 def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-           max_steps, n_events, max_log):
+           max_steps, n_events, max_log, event_samples=EVENT_SAMPLES):
     """Adaptive DOPRI5 from t0 to t_eval[-1].
+
+    event_samples: interior points of every accepted step's dense output at which the event
+    functions are also evaluated, so that sign changes between the step's ends are located
+    (nld.integrators.events; 0: the ends only).
 
     returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
 
@@ -318,14 +262,13 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     k5 = np.empty(n)
     k6 = np.empty(n)
     k7 = np.empty(n)
-    r2 = np.empty(n)
-    r3 = np.empty(n)
-    r4 = np.empty(n)
-    r5 = np.empty(n)
+    cont = np.empty((5, n))                 # dense output of the last step
     gcur = np.empty(ne)
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
+    gw = np.empty((4, ne))
     sgn = np.zeros(ne, dtype=np.int64)      # tracked sign of g_k (0 = undetermined)
+    troot_a = np.empty(ne)
     troot = np.empty(ne)
     crossed = np.zeros(ne, dtype=np.bool_)
 
@@ -351,11 +294,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     nfev += 1
     if ne > 0:
         events(t, y, p, z, gcur)
-        for k in range(ne):
-            if gcur[k] > 0.0:
-                sgn[k] = 1
-            elif gcur[k] < 0.0:
-                sgn[k] = -1
+        set_unknown_signs(gcur, sgn)
 
     span = t_end - t0
     hcap = span
@@ -430,18 +369,22 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         facold = max(err, FACOLD0)
         n_acc += 1
 
-        # ------------------------------------------------ event detection
+        # ------------------------------------------------ event detection and location
         have_event = False
+        dense_done = False
+        t_star = t_new
+        tol = ROOT_RTOL * max(1.0, abs(t_new))
         if ne > 0:
             events(t_new, ynew, p, z, gnew)
-            for k in range(ne):
-                crossed[k] = sgn[k] != 0 and gnew[k] * sgn[k] <= 0.0
-                if crossed[k]:
-                    have_event = True
+            if event_samples > 0 or find_crossings(gnew, sgn, crossed):
+                dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
+                dense_done = True
+                have_event, a_star, t_star, first = locate_earliest(
+                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
             # dense output for t_eval in (t, t_new]
-            dense_done = False
             while i_out < n_eval and t_eval[i_out] <= t_new:
                 te = t_eval[i_out]
                 if te == t_new:
@@ -449,9 +392,9 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                         Y[i_out, j] = ynew[j]
                 else:
                     if not dense_done:
-                        _dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5)
+                        dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
                         dense_done = True
-                    _interp_row((te - t) / h, y, r2, r3, r4, r5, Y, i_out)
+                    interp((te - t) / h, cont, Y[i_out])
                 Zo[i_out, :] = z
                 i_out += 1
             t = t_new
@@ -459,30 +402,15 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             k1, k7 = k7, k1     # FSAL
             if ne > 0:
                 gcur, gnew = gnew, gcur
-                for k in range(ne):
-                    if sgn[k] == 0:
-                        if gcur[k] > 0.0:
-                            sgn[k] = 1
-                        elif gcur[k] < 0.0:
-                            sgn[k] = -1
+                set_unknown_signs(gcur, sgn)
             h = hnew
             continue
 
-        # ------------------------------------------------ event location
-        _dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5)
-        tol = ROOT_RTOL * max(1.0, abs(t_new))
-        t_star = t_new
-        for k in range(ne):
-            if crossed[k]:
-                troot[k] = _locate(events, k, sgn[k], t, h, t_new, gcur[k], gnew[k], y, r2,
-                                   r3, r4, r5, yint, gtmp, p, z, tol)
-                if troot[k] < t_star:
-                    t_star = troot[k]
-
+        # ------------------------------------------------ at the earliest root t_star
         if t_star > t:
             if t_star < t_new:
                 # retake the step so the state at t_star is a true 5th-order solution
-                _interp((t_star - t) / h, y, r2, r3, r4, r5, yint)
+                interp((t_star - t) / h, cont, yint)
                 h_s = t_star - t
                 _stages(rhs, t, h_s, t_star, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z)
                 nfev += 6
@@ -493,7 +421,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                         break
                 if ok:
                     h_d = h_s
-                    _dense_coeffs(h_d, y, ynew, k1, k3, k4, k5, k6, k7, r2, r3, r4, r5)
+                    dense_coeffs(h_d, y, ynew, k1, k3, k4, k5, k6, k7, cont)
                 else:
                     # fall back on the (finite) interpolant of the original step
                     h_d = h
@@ -507,35 +435,20 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                     for j in range(n):
                         Y[i_out, j] = ynew[j]
                 else:
-                    _interp_row((te - t) / h_d, y, r2, r3, r4, r5, Y, i_out)
+                    interp((te - t) / h_d, cont, Y[i_out])
                 Zo[i_out, :] = z
                 i_out += 1
             t = t_star
             y, ynew = ynew, y
 
         # fire every crossing whose root is within tol of t_star
-        stop = False
-        for k in range(ne):
-            if crossed[k] and troot[k] <= t_star + tol:
-                direction = -sgn[k]
-                if n_ev < max_log:
-                    ev_t[n_ev] = t
-                    ev_k[n_ev] = k
-                    ev_dir[n_ev] = direction
-                n_ev += 1
-                sgn[k] = direction
-                if on_event(k, direction, t, y, p, z) == 1:
-                    stop = True
+        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
+                                 ev_k, ev_dir, n_ev, max_log)
         # z may have changed: FSAL is invalid, recompute k1 and g at the event point
         rhs(t, y, p, z, k1)
         nfev += 1
         events(t, y, p, z, gcur)
-        for k in range(ne):
-            if sgn[k] == 0:
-                if gcur[k] > 0.0:
-                    sgn[k] = 1
-                elif gcur[k] < 0.0:
-                    sgn[k] = -1
+        set_unknown_signs(gcur, sgn)
         if stop:
             status = 1
             break

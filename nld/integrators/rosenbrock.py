@@ -24,8 +24,9 @@ Interface (identical to ``dopri5``)::
 ``stats = [steps, accepted, rejected, rhs evaluations, events, jacobians, LU decompositions]``
 (length 7; rhs evaluations include those spent on finite differences). An additional status
 ``SINGULAR = -5``: the iteration matrix was singular 5 times in a row (the step is halved first).
-Events: as dopri5 (located on the dense output, step retaken from t with the same Jacobian and a
-new LU to land on the event).
+Events: as dopri5 (nld.integrators.events: interior samples of the dense output, which costs no
+rhs evaluation here; step retaken from t with the same Jacobian and a new LU to land on the
+event).
 """
 
 import math
@@ -33,8 +34,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .dop853 import (earliest_root, fire_events, find_crossings, initial_step, set_unknown_signs,
-                     write_outputs)
+from .dop853 import initial_step, write_outputs
+from .events import EVENT_SAMPLES, find_crossings, fire_events, locate_earliest, set_unknown_signs
 from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events, rweight
 
 SINGULAR = -5          # iteration matrix repeatedly singular
@@ -382,7 +383,7 @@ def interp(theta, cont, out):
 
 @njit(cache=True, inline='always')
 def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-          max_steps, n_events, max_log):
+          max_steps, n_events, max_log, event_samples=EVENT_SAMPLES):
     """Adaptive Rodas4 from t0 to t_eval[-1]; same arguments and results as dopri5.
 
     returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
@@ -390,6 +391,8 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
     status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
     underflow, -3 non-finite values, -5 iteration matrix repeatedly singular.
     stats = [steps, accepted, rejected, rhs evals, events, jacobians, LU decompositions].
+    event_samples: interior samples of every step's dense output scanned for event sign changes
+    (nld.integrators.events).
     """
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
@@ -427,7 +430,9 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
     gcur = np.empty(ne)
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
+    gw = np.empty((4, ne))
     sgn = np.zeros(ne, dtype=np.int64)
+    troot_a = np.empty(ne)
     troot = np.empty(ne)
     crossed = np.zeros(ne, dtype=np.bool_)
 
@@ -573,13 +578,21 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
 
         # ------------------------------------------------ event detection
         have_event = False
+        dense_done = False
+        tol = ROOT_RTOL * max(1.0, abs(t_new))
+        t_star = t_new
         if ne > 0:
             events(t_new, ynew, p, z, gnew)
-            have_event = find_crossings(gnew, sgn, crossed)
+            if event_samples > 0 or find_crossings(gnew, sgn, crossed):
+                _dense(y, ynew, AK, cont)
+                dense_done = True
+                have_event, a_star, t_star, first = locate_earliest(
+                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
             if i_out < n_eval and t_eval[i_out] <= t_new:
-                if t_eval[i_out] < t_new:
+                if t_eval[i_out] < t_new and not dense_done:
                     _dense(y, ynew, AK, cont)
                 i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_new
@@ -593,15 +606,17 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
         # ------------------------------------------------ event location
         # as dop853: locate on the dense output, retake the step (same Jacobian, new LU) to land
         # on the root, check the retaken end state, iterate until the root is at its end
-        _dense(y, ynew, AK, cont)
-        tol = ROOT_RTOL * max(1.0, abs(t_new))
         t_c = t_new             # end of the current step, state ynew
         dense_h = h             # cont is the dense output of [t, t + dense_h]
         fire = True
-        t_star = t_c
-        for _ in range(MAX_RELOCATE):
-            t_star = earliest_root(events, interp, crossed, sgn, t, dense_h, t_c, gcur, gnew, cont,
-                                   yint, gtmp, p, z, tol, troot)
+        for it in range(MAX_RELOCATE):
+            if it > 0:
+                found, a_star, t_star, first = locate_earliest(
+                    events, interp, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
+                    gtmp, gw, p, z, tol, crossed, troot_a, troot)
+                if not found:
+                    fire = False     # the event comes later: t_c is a plain step end
+                    break
             if t_star <= t or t_star >= t_c - tol:
                 break
             interp((t_star - t) / dense_h, cont, yint)
@@ -625,7 +640,7 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
             _dense(y, ynew, AK, cont)
             dense_h = h_s
             events(t_c, ynew, p, z, gnew)
-            if not find_crossings(gnew, sgn, crossed):
+            if event_samples == 0 and not find_crossings(gnew, sgn, crossed):
                 fire = False         # the event comes later: t_c is a plain step end
                 break
 

@@ -30,10 +30,11 @@ each mark the scaled vectors w_c / scales are orthonormalised by modified Gram-S
 the memory parts w_z transformed by the same triangular factor (w -> w R^-1 for both parts),
 and ln R_cc recorded in ``logs[mark, c]``.
 
-Event location: after every accepted step every event function is also evaluated at three
-interior points of the step's dense output (1/4, 1/2, 3/4), so that a contact lost and regained
-within one step (two sign changes) is located; each root is then found by Illinois' method in the
-first sub-interval where the sign changed.
+Event location: nld.integrators.events, shared with the plain integrators: after every accepted
+step every event function is also evaluated at ``event_samples`` interior points of the step's
+dense output (default 3: 1/4, 1/2, 3/4), so that a contact lost and regained within one step
+(two sign changes) is located; the first sub-interval with a change is refined and the earliest
+root found by Illinois' method.
 """
 import math
 
@@ -41,11 +42,10 @@ import numpy as np
 from numba import njit
 
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
-                     A71, A73, A74, A75, A76, BETA, C2, C3, C4, C5, D1, D3, D4, D5, D6, D7, E1,
-                     E3, E4, E5, E6, E7, EPS, EXPO1, FACC1, FACC2, FACOLD0, MAX_NONFINITE,
-                     ROOT_MAXITER, ROOT_RTOL, SAFE, rweight)
-
-N_SUB = 4                  # sub-intervals scanned for sign changes in every step
+                     A71, A73, A74, A75, A76, BETA, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EPS,
+                     EXPO1, FACC1, FACC2, FACOLD0, MAX_NONFINITE, ROOT_RTOL, SAFE, dense_coeffs,
+                     interp, rweight)
+from .events import EVENT_SAMPLES, locate_earliest, set_unknown_signs
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
 # diag entries
@@ -58,118 +58,6 @@ def new_diag():
     d = np.zeros(N_DIAG)
     d[DG_MINRATIO] = np.inf
     return d
-
-
-@njit(cache=True, inline='always')
-def _dense5(h, y, ynew, k1, k3, k4, k5, k6, k7, cont):
-    """Hairer's DOPRI5 continuous extension, coefficients in cont[0..3]."""
-    n = y.shape[0]
-    for i in range(n):
-        ydiff = ynew[i] - y[i]
-        bspl = h * k1[i] - ydiff
-        cont[0, i] = ydiff
-        cont[1, i] = bspl
-        cont[2, i] = ydiff - h * k7[i] - bspl
-        cont[3, i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i]
-                          + D7 * k7[i])
-
-
-@njit(cache=True, inline='always')
-def _interp5(theta, y, cont, out):
-    th1 = 1.0 - theta
-    for i in range(y.shape[0]):
-        out[i] = y[i] + theta * (cont[0, i] + th1 * (cont[1, i] + theta * (cont[2, i]
-                                                                          + th1 * cont[3, i])))
-
-
-@njit(cache=False, inline='always')
-def bracket_root(events, k, s, t, h, ta, tb, ga, gb, y, cont, yint, gtmp, p, z, tol):
-    """Illinois (modified regula falsi) for g_k on the dense output of the step [t, t + h],
-    within the sub-interval [ta, tb] where g_k leaves side s (ga on side s, gb on the other side
-    or 0). Returns (a, b): a on side s, b on the new side (or at the root), b - a <= tol.
-
-    If ga is not strictly on side s (just after an event at ta, g_k is zero up to round-off),
-    the left end is moved to the first of ta + tol*4^j where g_k is on side s; if there is
-    none, the crossing is "now" and (ta, ta) is returned."""
-    if gb == 0.0:
-        return tb, tb
-    a = ta
-    fa = ga
-    if ga * s <= 0.0:
-        d = tol
-        while True:
-            a = ta + d
-            if a >= tb:
-                return ta, ta
-            _interp5((a - t) / h, y, cont, yint)
-            events(a, yint, p, z, gtmp)
-            fa = gtmp[k]
-            if fa * s > 0.0:
-                break
-            d *= 4.0
-    b = tb
-    fb = gb
-    side = 0
-    for _ in range(ROOT_MAXITER):
-        if b - a <= tol or b - a <= 4.0 * EPS * abs(b):
-            break
-        c = b - fb * (b - a) / (fb - fa)
-        if not (c > a and c < b):
-            c = 0.5 * (a + b)
-        _interp5((c - t) / h, y, cont, yint)
-        events(c, yint, p, z, gtmp)
-        fc = gtmp[k]
-        if fc == 0.0:
-            return a, c
-        if fc * fb > 0.0:
-            b = c
-            fb = fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            a = c
-            fa = fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
-    return a, b
-
-
-@njit(cache=False, inline='always')
-def scan_step(events, t, h, t_new, y, cont, gcur, gnew, sgn, gsub, tsub, yint, gtmp, p, z,
-              crossed, ta_k, tb_k, ga_k, gb_k):
-    """For every event function: the first of the N_SUB sub-intervals of [t, t_new] (dense
-    output) at whose right end g_k has left its tracked side sgn[k]. Fills crossed, and the
-    sub-bracket (ta_k, tb_k, ga_k, gb_k). Returns whether any crossed."""
-    ne = gcur.shape[0]
-    for k in range(ne):
-        gsub[0, k] = gcur[k]
-        gsub[N_SUB, k] = gnew[k]
-    tsub[0] = t
-    tsub[N_SUB] = t_new
-    for j in range(1, N_SUB):
-        tj = t + (j / N_SUB) * h
-        tsub[j] = tj
-        _interp5(j / N_SUB, y, cont, yint)
-        events(tj, yint, p, z, gtmp)
-        for k in range(ne):
-            gsub[j, k] = gtmp[k]
-    anyc = False
-    for k in range(ne):
-        crossed[k] = False
-        if sgn[k] == 0:
-            continue
-        for j in range(1, N_SUB + 1):
-            if gsub[j, k] * sgn[k] <= 0.0:
-                crossed[k] = True
-                ta_k[k] = tsub[j - 1]
-                tb_k[k] = tsub[j]
-                ga_k[k] = gsub[j - 1, k]
-                gb_k[k] = gsub[j, k]
-                anyc = True
-                break
-    return anyc
 
 
 @njit(cache=True, inline='always')
@@ -310,7 +198,7 @@ def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus,
 @njit(cache=False, inline='always')
 def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W, Wz,
                    marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events, tangent_err,
-                   want_div, diag, logs):
+                   want_div, diag, logs, event_samples=EVENT_SAMPLES):
     """Integrate (y, W, Wz) from t0 through every time in ``marks`` (ascending, > t0),
     re-orthonormalising the tangent vectors at each (module docstring).
 
@@ -338,8 +226,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
     wtmp = np.empty(n)
     unit = np.empty(n)
     trace_tmp = np.empty(n)
-    cont = np.empty((4, n))
-    contW = np.empty((k, 4, n))
+    cont = np.empty((5, n))
     fminus = np.empty(n)
     fplus = np.empty(n)
     zold = np.empty(nz)
@@ -348,14 +235,9 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
     gd = np.empty(ne)
-    gsub = np.empty((N_SUB + 1, ne))
-    tsub = np.empty(N_SUB + 1)
+    gw = np.empty((4, ne))
     sgn = np.zeros(ne, dtype=np.int64)
     crossed = np.zeros(ne, dtype=np.bool_)
-    ta_k = np.empty(ne)
-    tb_k = np.empty(ne)
-    ga_k = np.empty(ne)
-    gb_k = np.empty(ne)
     troot_a = np.empty(ne)
     troot_b = np.empty(ne)
     zzero = np.zeros(nz)
@@ -375,11 +257,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
     nfev += 1
     if ne > 0:
         events(t, y, p, z, gcur)
-        for q in range(ne):
-            if gcur[q] > 0.0:
-                sgn[q] = 1
-            elif gcur[q] < 0.0:
-                sgn[q] = -1
+        set_unknown_signs(gcur, sgn)
 
     span = t_end - t0
     hcap = span
@@ -530,13 +408,15 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             facold = max(err, FACOLD0)
             n_acc += 1
 
-            # ------------------------------------------ events: scan the step
+            # ------------------------------------------ events: scan the step, earliest root
             have_event = False
+            tol = ROOT_RTOL * max(1.0, abs(t_new))
             if ne > 0:
                 events(t_new, ynew, p, z, gnew)
-                _dense5(h, y, ynew, KY[0], KY[2], KY[3], KY[4], KY[5], KY[6], cont)
-                have_event = scan_step(events, t, h, t_new, y, cont, gcur, gnew, sgn, gsub,
-                                       tsub, yint, gtmp, p, z, crossed, ta_k, tb_k, ga_k, gb_k)
+                dense_coeffs(h, y, ynew, KY[0], KY[2], KY[3], KY[4], KY[5], KY[6], cont)
+                have_event, a_star, t_star, first = locate_earliest(
+                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    gw, p, z, tol, crossed, troot_a, troot_b)
             if not have_event:
                 if want_div:
                     diag[DG_DIV] += _div_step(h, trs)
@@ -552,11 +432,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                 if ne > 0:
                     for q in range(ne):
                         gcur[q] = gnew[q]
-                        if sgn[q] == 0:
-                            if gcur[q] > 0.0:
-                                sgn[q] = 1
-                            elif gcur[q] < 0.0:
-                                sgn[q] = -1
+                    set_unknown_signs(gcur, sgn)
                 if t >= marks[i_mark]:
                     _orthonormalise(W, Wz, scales, logs[i_mark])
                     i_mark += 1
@@ -568,25 +444,11 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                 h = hnew
                 continue
 
-            # ------------------------------------------ event: the earliest root
-            tol = ROOT_RTOL * max(1.0, abs(t_new))
-            t_star = t_new
-            a_star = t
-            first = -1
-            for q in range(ne):
-                if crossed[q]:
-                    ra, rb = bracket_root(events, q, sgn[q], t, h, ta_k[q], tb_k[q], ga_k[q],
-                                          gb_k[q], y, cont, yint, gtmp, p, z, tol)
-                    troot_a[q] = ra
-                    troot_b[q] = rb
-                    if first < 0 or rb < t_star:
-                        t_star = rb
-                        a_star = ra
-                        first = q
+            # ------------------------------------------ event at the earliest root t_star
             # the field on the old branch, at the left end of the bracket
-            _interp5((a_star - t) / h, y, cont, ya)
+            interp((a_star - t) / h, cont, ya)
             rhs(a_star, ya, p, z, fminus)
-            _interp5((t_star - t) / h, y, cont, yb)     # on the new side (for f+)
+            interp((t_star - t) / h, cont, yb)     # on the new side (for f+)
             nfev += 1
             if t_star > t:
                 retake = True       # recompute the step [t, t_star]: state and tangents
@@ -642,12 +504,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                           trace_tmp, unit)
         nfev += 1
         events(t, y, p, z, gcur)
-        for q in range(ne):
-            if sgn[q] == 0:
-                if gcur[q] > 0.0:
-                    sgn[q] = 1
-                elif gcur[q] < 0.0:
-                    sgn[q] = -1
+        set_unknown_signs(gcur, sgn)
         if t >= marks[i_mark]:
             _orthonormalise(W, Wz, scales, logs[i_mark])
             i_mark += 1
