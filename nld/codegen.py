@@ -872,7 +872,10 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w("nx_ = ex/ecc if ecc > 0.0 else 1.0; ny_ = ey/ecc if ecc > 0.0 else 0.0")
             E.w(f"vt_ = slip_velocity(A{ci}vx - B{ci}vx, A{ci}vy - B{ci}vy, nx_, ny_, {wj}, {wb}, {rj}, "
                 f"{rj} + {E.P(f'joints.{jn}.clearance')})")
-            E.w(f"z[{ZL.mode[ci]}] = 0.0 if not inc else (1.0 if vt_ > 0.0 else (-1.0 if vt_ < 0.0 else 2.0))")
+            # a slip velocity within round-off of zero (1e-12 of the speeds that make it) is zero
+            E.w(f"vs_ = 1e-12*(abs(A{ci}vx - B{ci}vx) + abs(A{ci}vy - B{ci}vy) + abs({wj}*{rj}) + "
+                f"abs({wb}*({rj} + {E.P(f'joints.{jn}.clearance')})))")
+            E.w(f"z[{ZL.mode[ci]}] = 0.0 if not inc else (1.0 if vt_ > vs_ else (-1.0 if vt_ < -vs_ else 2.0))")
             E.w(f"z[{ZL.sig_v[ci]}] = 1.0; z[{ZL.sig_f[ci]}] = 1.0")
     if hyb:
         for ci in hyb:
