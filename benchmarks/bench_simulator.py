@@ -161,7 +161,8 @@ def _dopri5(case: Case, kernel: str, rtol: float, t_eval: np.ndarray, max_log: i
     mod, par = (case.kern.module, case.p) if kernel == "scene" else (H, case.ph)
     z = case.z0.copy()
     return mod.solve(0.0, case.y0.copy(), t_eval, False, par, z, float(rtol), tol_vector(case, rtol),
-                     0.0, case.period / 20.0, MAX_STEPS, int(case.kern.n_events), max_log)
+                     0.0, case.period / 20.0, MAX_STEPS,
+                     int(case.kern.n_events) if kernel == "scene" else 1, max_log)
 
 
 def dopri5_solution(case: Case, kernel: str, rtol: float):

@@ -41,7 +41,11 @@ class ZLayout:
     """Where each entry of the kernel's discrete state z lives, and the order of its events.
 
     z = [v_minus or contact flag per clearance joint | dependent coordinates (loops' Newton warm start)
-         | branch (+1/-1) per switched load | (mode, sigma_v, sigma_f) per hybrid Coulomb joint].
+         | branch (+1/-1) per switched load | (mode, sigma_v, sigma_f) per hybrid Coulomb joint
+         | sigma_c per hertz_damped joint].
+
+    hertz_damped's flag z[j]: > 0 contact, < 0 contact with the force clamped at zero (K d^n + C d'
+    has fallen through 0 during restitution: a located kink), 0 free.
 
     mode: 0 free (no contact), 1 slip+, -1 slip-, 2 stick (docs/contact-laws.md, "Modes").
     sigma_v, sigma_f: the sign the integrator tracks for the joint's slip-velocity and stick-margin
@@ -51,7 +55,7 @@ class ZLayout:
     again at once because of the switch itself.
 
     Events: [penetration per clearance joint | switched loads | (slip velocity, stick margin) per
-    hybrid joint]."""
+    hybrid joint | clamp per hertz_damped joint]."""
 
     def __init__(self, scene: Scene, topo: Topology):
         nc, nd = len(topo.clearance), len(topo.dependent)
@@ -72,11 +76,20 @@ class ZLayout:
             self.ev_v[ci], self.ev_f[ci] = e, e + 1
             i += 3
             e += 2
+        # hertz_damped: the zero of K d^n + C d' during restitution (the clamp at F = 0, a kink)
+        self.clamp: list[int] = [ci for ci, jn in enumerate(topo.clearance)
+                                 if scene.joints[jn].contact.law == "hertz_damped"]
+        self.sig_c, self.ev_c = {}, {}
+        for ci in self.clamp:
+            self.sig_c[ci], self.ev_c[ci] = i, e
+            i += 1
+            e += 1
         self.n = i
         self.n_events = e
         names = list(topo.clearance) + [f"load{li}" for li in self.load]
         for ci in self.hybrid:
             names += [f"{topo.clearance[ci]}.slip", f"{topo.clearance[ci]}.stick"]
+        names += [f"{topo.clearance[ci]}.clamp" for ci in self.clamp]
         self.event_names = names
 
 
@@ -753,6 +766,23 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         E.w(f"if {md} == 2.0:")
         E.w(f"    hf{ci} = {E.P(f'joints.{jn}.friction.mu_s')}*Fn{ci} - abs(Ft{ci})")
         E.w(f"g[{ZL.ev_f[ci]}] = z[{ZL.sig_f[ci]}]*hf{ci}")
+    if ZL.clamp and not hyb:
+        E.velocities(bias=False)
+    for ci in ZL.clamp:
+        jn = t.clearance[ci]
+        j = scene.joints[jn]
+        if not hyb:
+            E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=True)
+            E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=True)
+        pre = f"joints.{jn}."
+        E.w(f"exc = A{ci}x - B{ci}x; eyc = A{ci}y - B{ci}y; eccc = np.sqrt(exc*exc + eyc*eyc)")
+        E.w(f"ddc = ((A{ci}vx - B{ci}vx)*exc + (A{ci}vy - B{ci}vy)*eyc)/eccc if eccc > 0.0 else 0.0")
+        E.w(f"pc = max(eccc - {E.P(pre + 'clearance')}, 0.0)")
+        # the unclamped force: positive in contact, negative once clamped; 1 (inactive) when free
+        E.w(f"Fr{ci} = {E.P(pre + 'contact.stiffness')}*pc**{E.P(pre + 'contact.exponent')} + "
+            f"{E.P(pre + 'contact.damping')}*ddc")
+        E.w(f"hc{ci} = Fr{ci} if z[{ci}] > 0.0 else (-Fr{ci} if z[{ci}] < 0.0 else 1.0)")
+        E.w(f"g[{ZL.ev_c[ci]}] = z[{ZL.sig_c[ci]}]*hc{ci}")
     out.append("@njit(cache=True)")
     out.append("def events(t, y, p, z, g):")
     out += E.lines + ["    return", ""]
@@ -812,6 +842,10 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             up = "1.0" if ld.modulation == "crank_halves" else "-1.0"
             E.w(f"if k == {ZL.ev_load[i]}:")
             E.w(f"    z[{ZL.load[i]}] = {up} if direction > 0 else -{up}")
+    for ci in ZL.clamp:
+        E.w(f"if k == {ZL.ev_c[ci]}:")         # hertz_damped: clamped <-> pressing (kink located)
+        E.w(f"    z[{ZL.sig_c[ci]}] = 1.0 if direction > 0 else -1.0")
+        E.w(f"    z[{ci}] = -z[{ci}]")
     for ci in hyb:
         md = f"z[{ZL.mode[ci]}]"
         E.w(f"if k == {ZL.ev_v[ci]}:")         # slip velocity reached zero: tentative stick
@@ -864,7 +898,13 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         E.w("ecc = np.sqrt(ex*ex + ey*ey)")
         E.w(f"inc = ecc - {E.P(f'joints.{jn}.clearance')} > 0.0")
         if hd:
-            E.w(f"z[{ci}] = {E.P(f'joints.{jn}.contact.min_approach_velocity')} if inc else 0.0")
+            pre = f"joints.{jn}."
+            E.w(f"ddc = ((A{ci}vx - B{ci}vx)*ex + (A{ci}vy - B{ci}vy)*ey)/ecc if ecc > 0.0 else 0.0")
+            E.w(f"Frc = {E.P(pre + 'contact.stiffness')}*max(ecc - {E.P(pre + 'clearance')}, 0.0)**"
+                f"{E.P(pre + 'contact.exponent')} + {E.P(pre + 'contact.damping')}*ddc")
+            E.w(f"z[{ci}] = 0.0 if not inc else ({E.P(pre + 'contact.min_approach_velocity')} if Frc > 0.0 "
+                f"else -{E.P(pre + 'contact.min_approach_velocity')})")
+            E.w(f"z[{ZL.sig_c[ci]}] = 1.0")
         if ci in ZL.mode:
             rj = E.P(f"joints.{jn}.journal_radius")
             wj = "0.0" if bj == GROUND else f"w{bj}"
