@@ -41,8 +41,12 @@ class ZLayout:
     """Where each entry of the kernel's discrete state z lives, and the order of its events.
 
     z = [v_minus or contact flag per clearance joint | dependent coordinates (loops' Newton warm start)
-         | branch (+1/-1) per switched load | (mode, sigma_v, sigma_f) per hybrid Coulomb joint
+         | branch (+1/-1) per switched load | (mode, sigma_v, sigma_f, vt0) per hybrid Coulomb joint
          | sigma_c per hertz_damped joint].
+
+    vt0: the slip velocity when the slip began (m/s; 0 from a contact onset). The slip event watches
+    s (vt - vt0): it starts at exactly zero and grows, even where vt kept a round-off residual of
+    the other sign from the preceding stick (a stick -> slip -> stick loop at one instant).
 
     hertz_damped's flag z[j]: > 0 contact, < 0 contact with the force clamped at zero (K d^n + C d'
     has fallen through 0 during restitution: a located kink), 0 free.
@@ -70,11 +74,11 @@ class ZLayout:
                 i += 1
                 e += 1
         self.hybrid: list[int] = [ci for ci, jn in enumerate(topo.clearance) if hybrid_coulomb(scene.joints[jn])]
-        self.mode, self.sig_v, self.sig_f, self.ev_v, self.ev_f = {}, {}, {}, {}, {}
+        self.mode, self.sig_v, self.sig_f, self.ev_v, self.ev_f, self.vt0 = {}, {}, {}, {}, {}, {}
         for ci in self.hybrid:
-            self.mode[ci], self.sig_v[ci], self.sig_f[ci] = i, i + 1, i + 2
+            self.mode[ci], self.sig_v[ci], self.sig_f[ci], self.vt0[ci] = i, i + 1, i + 2, i + 3
             self.ev_v[ci], self.ev_f[ci] = e, e + 1
-            i += 3
+            i += 4
             e += 2
         # hertz_damped: the zero of K d^n + C d' during restitution (the clamp at F = 0, a kink)
         self.clamp: list[int] = [ci for ci, jn in enumerate(topo.clearance)
@@ -760,7 +764,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         # slip velocity, positive while slipping in the mode's direction; stick margin mu_s Fn - |Ft|
         E.w(f"hv{ci} = 1.0")
         E.w(f"if {md} == 1.0 or {md} == -1.0:")
-        E.w(f"    hv{ci} = {md}*vt{ci}")
+        E.w(f"    hv{ci} = {md}*(vt{ci} - z[{ZL.vt0[ci]}])")
         E.w(f"g[{ZL.ev_v[ci]}] = z[{ZL.sig_v[ci]}]*hv{ci}")
         E.w(f"hf{ci} = 1.0")
         E.w(f"if {md} == 2.0:")
@@ -799,6 +803,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.ind += 1
             E.w(f"if chk{ci} == 2 or abs(Ft{ci}) > {E.P(f'joints.{jn}.friction.mu_s')}*Fn{ci}:")
             E.w(f"    {md} = 1.0 if Ft{ci} >= 0.0 else -1.0")
+            E.w(f"    z[{ZL.vt0[ci]}] = vt{ci}")
             E.ind -= 1
 
     # on_event: record the approach velocity at contact onset, switch loads and friction modes
@@ -832,6 +837,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w(f"vt_ = slip_velocity(A{ci}vx - B{ci}vx, A{ci}vy - B{ci}vy, nx_, ny_, {wj}, {wb}, {rj}, "
                 f"{rj} + {E.P(f'joints.{jn}.clearance')})")
             E.w(f"z[{ZL.mode[ci]}] = 1.0 if vt_ > 0.0 else (-1.0 if vt_ < 0.0 else 2.0)")
+            E.w(f"z[{ZL.vt0[ci]}] = 0.0")
             E.w(f"chk{ci} = 1")
             E.ind -= 1
             E.w("else:")
@@ -916,7 +922,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w(f"vs_ = 1e-12*(abs(A{ci}vx - B{ci}vx) + abs(A{ci}vy - B{ci}vy) + abs({wj}*{rj}) + "
                 f"abs({wb}*({rj} + {E.P(f'joints.{jn}.clearance')})))")
             E.w(f"z[{ZL.mode[ci]}] = 0.0 if not inc else (1.0 if vt_ > vs_ else (-1.0 if vt_ < -vs_ else 2.0))")
-            E.w(f"z[{ZL.sig_v[ci]}] = 1.0; z[{ZL.sig_f[ci]}] = 1.0")
+            E.w(f"z[{ZL.sig_v[ci]}] = 1.0; z[{ZL.sig_f[ci]}] = 1.0; z[{ZL.vt0[ci]}] = 0.0")
     if hyb:
         for ci in hyb:
             E.w(f"chk{ci} = 1")

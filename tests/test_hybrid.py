@@ -351,3 +351,18 @@ def test_hybrid_coulomb_tends_to_ideal():
         errs.append(np.abs(r.table["slider.x"].to_numpy() - ref["slider.x"].to_numpy()).max())
     assert errs[0] < 2 * 5e-4
     assert errs[1] < errs[0] / 5
+
+
+def test_mode_code_only_for_the_laws_a_scene_has():
+    """Events, z entries and stick rows are generated only for the laws and loads a scene has."""
+    k = compile_scene(load_scene("slider_crank"))            # LN, no friction, no switched load
+    src = k.source_path.read_text()
+    assert k.n_events == 1 and k.n_z == 1
+    assert "Jt0_" not in src and "def init_modes" in src
+    off = compile_scene(load_scene("excavator", ["joints.A.friction.mu=0", "joints.B.friction.mu=0"]))
+    # 2 penetrations, 2 switched loads, 2 hertz_damped clamps; no friction code at all
+    assert off.n_events == 6 and off.z_layout.event_names[2:4] == ["load0", "load1"]
+    assert "Jt0_" not in off.source_path.read_text() and "coulomb(" not in off.source_path.read_text().split("def rhs")[1].split("def events")[0]
+    on = compile_scene(load_scene("excavator"))               # Coulomb f = 0.01 at A and B
+    assert on.n_events == 10 and on.n_z == off.n_z + 8
+    assert on.z_layout.event_names[4:8] == ["A.slip", "A.stick", "B.slip", "B.stick"]
