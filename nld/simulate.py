@@ -343,6 +343,8 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         interrupted = False
         with deferred() as sig:
             for i, t in enumerate(t_eval):
+                # nothing is integrated, so no event sets the modes: take them from the state
+                kern.module.init_modes(t, y0, p, z)
                 kern.module.observe(t, y0, p, z, rows[i])
                 if sig.requested:
                     sig.handled = interrupted = True
