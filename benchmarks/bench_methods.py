@@ -127,8 +127,10 @@ def numbalsoda_runs(setup, st, refs, log):
     except Exception as exc:                                   # noqa: BLE001
         return f"numbalsoda could not be imported: {exc!r}"
     from nld.simulate import state_scales
-    rhs = setup.kern.module.rhs
+    rhs, events = setup.kern.module.rhs, setup.kern.module.events
     n = int(setup.y0.size)
+    NE = max(1, int(setup.kern.n_events))
+    NC = len(setup.clearances)
     P = np.ascontiguousarray(setup.p, dtype=float)
     Z = np.ascontiguousarray(setup.z0, dtype=float)
     SC = np.ascontiguousarray(state_scales(setup.kern, setup.q), dtype=float)
@@ -137,11 +139,17 @@ def numbalsoda_runs(setup, st, refs, log):
         def f(t, u, du, data):
             uu = carray(u, (n,))
             dd = carray(du, (n,))
-            ws = carray(data, (2 * n,))
+            ws = carray(data, (2 * n + NE,))
             y = ws[:n]
-            dy = ws[n:]
+            dy = ws[n:2 * n]
+            g = ws[2 * n:]
             for i in range(n):
                 y[i] = uu[i] * SC[i]
+            # no events in numbalsoda: hertz_damped's contact mode follows the penetration's sign
+            # at every evaluation (the law stepped across, as before issue 14)
+            events(t, y, P, Z, g)
+            for i in range(NC):
+                Z[i] = 1.0 if g[i] > 0.0 else 0.0
             rhs(t, y, P, Z, dy)
             for i in range(n):
                 dd[i] = dy[i] / SC[i]
@@ -149,7 +157,7 @@ def numbalsoda_runs(setup, st, refs, log):
     except Exception as exc:                                   # noqa: BLE001
         return f"numbalsoda: the cfunc wrapping the kernel rhs did not compile: {exc!r}"
     u0 = np.ascontiguousarray(setup.y0 / SC)
-    data = np.zeros(2 * n)
+    data = np.zeros(2 * n + NE)
     grid = setup.t_win_eval
     ends = np.array([0.0, setup.t_window])
     rows = []

@@ -41,7 +41,8 @@ Contact laws (docs/contact-laws.md; references.md section 4):
     law 0, Lankarani-Nikravesh:  F = K delta^n (1 + 3 (1 - cr^2) / 4 * delta_dot / v_minus),
            v_minus = z[0] (approach velocity stored at onset by ``on_event``) or, if z[0] <= 0,
            the floor v_min;
-    law 1, Hertz with linear damping:  F = K delta^n + C delta_dot;
+    law 1, Hertz with linear damping:  F = K delta^n + C delta_dot, applied only in contact mode
+           (z[0] > 0, set at the located onset: the jump C delta_dot happens at the event);
 both clamped at F >= 0 and zero for delta <= 0. K is the journal-in-bearing Hertz stiffness
 K = 4 / (3 (sigma_1 + sigma_2)) sqrt(R_J R_B / (R_B - R_J)), sigma = (1 - nu^2) / E, R_B = R_J + c,
 computed here from the scene's Young's moduli and Poisson ratios (not taken from nld).
@@ -91,7 +92,8 @@ def rhs(t, y, p, z, dy):
     fx = 0.0      # contact force on the rod (the slider gets -f)
     fy = 0.0
     delta = ecc - p[10]
-    if delta > 0.0:
+    # law 1: contact is a mode, z[0] > 0 from the located onset to the located loss (issue 14)
+    if delta > 0.0 and (p[16] == 0.0 or z[0] > 0.0):
         nx = ex / ecc
         ny = ey / ecc
         ddot = (y[2] - vbx) * nx - vby * ny
@@ -170,7 +172,7 @@ def contact_force(t, y, p, z):
     ey = -a * math.sin(th) - L * math.sin(psi)
     ecc = math.sqrt(ex * ex + ey * ey)
     delta = ecc - p[10]
-    if delta <= 0.0:
+    if delta <= 0.0 or (p[16] != 0.0 and z[0] <= 0.0):
         return 0.0, delta
     dex = y[2] + a * w * math.sin(th) + L * psid * math.sin(psi)
     dey = -a * w * math.cos(th) - L * psid * math.cos(psi)

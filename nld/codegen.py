@@ -29,6 +29,74 @@ def friction_present(joint) -> bool:
     return (f.law != "none" and f.mu > 0.0) or f.tangential_damping > 0.0
 
 
+def hybrid_coulomb(joint) -> bool:
+    """A clearance joint whose Coulomb friction runs as hybrid modes (free / slip+ / slip- / stick)."""
+    return joint.friction.law == "coulomb" and joint.friction.mu > 0.0
+
+
+SWITCHED = ("crank_halves", "angle_threshold")
+
+
+class ZLayout:
+    """Where each entry of the kernel's discrete state z lives, and the order of its events.
+
+    z = [v_minus or contact flag per clearance joint | dependent coordinates (loops' Newton warm start)
+         | branch (+1/-1) per switched load | (mode, sigma_v, sigma_f, vt0) per hybrid Coulomb joint
+         | sigma_c per hertz_damped joint].
+
+    vt0: the slip velocity when the slip began (m/s; 0 from a contact onset). The slip event watches
+    s (vt - vt0): it starts at exactly zero and grows, even where vt kept a round-off residual of
+    the other sign from the preceding stick (a stick -> slip -> stick loop at one instant).
+
+    hertz_damped's flag z[j]: > 0 contact, < 0 contact with the force clamped at zero (K d^n + C d'
+    has fallen through 0 during restitution: a located kink), 0 free.
+
+    mode: 0 free (no contact), 1 slip+, -1 slip-, 2 stick (docs/contact-laws.md, "Modes").
+    sigma_v, sigma_f: the sign the integrator tracks for the joint's slip-velocity and stick-margin
+    events. Each event function is g = sigma * h with h > 0 while no switch is due (h = 1 when
+    the function is not active in the mode); on_event sets sigma to the crossing's direction, so
+    the function starts every new mode on the side the integrator has recorded and never fires
+    again at once because of the switch itself.
+
+    Events: [penetration per clearance joint | switched loads | (slip velocity, stick margin) per
+    hybrid joint | clamp per hertz_damped joint]."""
+
+    def __init__(self, scene: Scene, topo: Topology):
+        nc, nd = len(topo.clearance), len(topo.dependent)
+        self.n_clear = nc
+        i = nc + nd
+        e = nc
+        self.load: dict[int, int] = {}
+        self.ev_load: dict[int, int] = {}
+        for li, ld in enumerate(scene.loads):
+            if ld.modulation in SWITCHED:
+                self.load[li], self.ev_load[li] = i, e
+                i += 1
+                e += 1
+        self.hybrid: list[int] = [ci for ci, jn in enumerate(topo.clearance) if hybrid_coulomb(scene.joints[jn])]
+        self.mode, self.sig_v, self.sig_f, self.ev_v, self.ev_f, self.vt0 = {}, {}, {}, {}, {}, {}
+        for ci in self.hybrid:
+            self.mode[ci], self.sig_v[ci], self.sig_f[ci], self.vt0[ci] = i, i + 1, i + 2, i + 3
+            self.ev_v[ci], self.ev_f[ci] = e, e + 1
+            i += 4
+            e += 2
+        # hertz_damped: the zero of K d^n + C d' during restitution (the clamp at F = 0, a kink)
+        self.clamp: list[int] = [ci for ci, jn in enumerate(topo.clearance)
+                                 if scene.joints[jn].contact.law == "hertz_damped"]
+        self.sig_c, self.ev_c = {}, {}
+        for ci in self.clamp:
+            self.sig_c[ci], self.ev_c[ci] = i, e
+            i += 1
+            e += 1
+        self.n = i
+        self.n_events = e
+        names = list(topo.clearance) + [f"load{li}" for li in self.load]
+        for ci in self.hybrid:
+            names += [f"{topo.clearance[ci]}.slip", f"{topo.clearance[ci]}.stick"]
+        names += [f"{topo.clearance[ci]}.clamp" for ci in self.clamp]
+        self.event_names = names
+
+
 def structure_key(scene: Scene, topo: Topology) -> dict:
     """Everything that changes the kernel's code (and nothing that is only a number)."""
     return {
@@ -43,7 +111,8 @@ def structure_key(scene: Scene, topo: Topology) -> dict:
         "rheonomic": topo.rheonomic,
         "clearance": [(n, scene.joints[n].bodies, scene.joints[n].points, scene.joints[n].contact.law,
                        scene.joints[n].friction.law if friction_present(scene.joints[n]) else "none",
-                       scene.joints[n].friction.tangential_damping > 0) for n in topo.clearance],
+                       scene.joints[n].friction.tangential_damping > 0,
+                       hybrid_coulomb(scene.joints[n])) for n in topo.clearance],
         "gravity": [g != 0.0 for g in scene.gravity],
         "driver": None if scene.driver is None else (scene.driver.joint, scene.driver.mode),
         "loads": [(ld.type, ld.body, ld.point, ld.bodies, ld.points, ld.modulation, len(ld.table_angles))
@@ -66,6 +135,7 @@ def solver_fingerprint() -> str:
 class Emitter:
     def __init__(self, scene: Scene, topo: Topology, layout):
         self.scene, self.topo, self.L = scene, topo, layout
+        self.Z = ZLayout(scene, topo)
         self.lines: list[str] = []
         self.ind = 1
 
@@ -235,14 +305,10 @@ class Emitter:
         t = self.topo
         if ld.modulation == "constant":
             return "1.0"
-        if ld.modulation == "crank_halves":
-            a = f"q{t.crank_coord}"
-            self.w(f"fa{i} = {a} % (2.0*np.pi)")
-            self.w(f"fm{i} = 1.0 if fa{i} < np.pi else -1.0")
-            return f"fm{i}"
-        if ld.modulation == "angle_threshold":
-            b = t.body_index(ld.body)
-            self.w(f"fm{i} = 1.0 if th{b} <= {self.P(f'loads.{i}.threshold')} else -1.0")
+        if ld.modulation in SWITCHED:
+            # the branch the last located event chose (z, set by on_event / init_modes), never the
+            # sign of a continuous quantity: within a step the load is smooth (issue 14)
+            self.w(f"fm{i} = z[{self.Z.load[i]}]")
             return f"fm{i}"
         n = len(ld.table_angles)
         ia, iv = self.L.index[f"loads.{i}.table_angles"], self.L.index[f"loads.{i}.table_values"]
@@ -312,6 +378,9 @@ class Emitter:
         self.w(f"ecc{ci} = np.sqrt(ex{ci}*ex{ci} + ey{ci}*ey{ci})")
         self.w(f"pen{ci} = ecc{ci} - {self.P(pre + 'clearance')}")
         self.w(f"Fn{ci} = 0.0; Ft{ci} = 0.0; vt{ci} = 0.0; ddot{ci} = 0.0")
+        hyb = ci in self.Z.mode
+        if hyb:
+            self.w(f"nx{ci} = 1.0; ny{ci} = 0.0")
         self.w(f"if ecc{ci} > 0.0:")
         self.ind += 1
         self.w(f"nx{ci} = ex{ci}/ecc{ci}; ny{ci} = ey{ci}/ecc{ci}")
@@ -324,7 +393,15 @@ class Emitter:
             self.w(f"vt{ci} = slip_velocity(dex{ci}, dey{ci}, nx{ci}, ny{ci}, {wj}, {wb}, {rj}, "
                    f"{rj} + {self.P(pre + 'clearance')})")
         self.ind -= 1
-        self.w(f"if pen{ci} > 0.0:")
+        if hyb:
+            self.stick_row(ci, jn, coords)
+        if j.contact.law == "hertz_damped":
+            # contact is a mode (z[ci] > 0 from the located onset to the located separation): the
+            # jump C*ddot0 of seed eq. 11 happens at the event, never inside a step; in contact mode
+            # hertz_damped() is the smooth extension for trial points past the boundary
+            self.w(f"if z[{ci}] > 0.0:")
+        else:
+            self.w(f"if pen{ci} > 0.0:")
         self.ind += 1
         self.w(f"K = {self.P(pre + 'contact.stiffness')}; nexp = {self.P(pre + 'contact.exponent')}")
         law = j.contact.law
@@ -338,8 +415,12 @@ class Emitter:
         self.w(f"Fn{ci} = {law}(pen{ci}, ddot{ci}, {args})")
         if fr:
             f = j.friction
-            if f.law == "coulomb" and f.mu > 0:
-                self.w(f"Ft{ci} = coulomb(vt{ci}, Fn{ci}, {self.P(pre + 'friction.mu')})")
+            if hyb:
+                # slip: the sign is the mode's (coulomb() at vt = +-1); stick: the multiplier of the
+                # stick row, set after the solve; free: no friction
+                self.w(f"md{ci} = z[{self.Z.mode[ci]}]")
+                self.w(f"if md{ci} == 1.0 or md{ci} == -1.0:")
+                self.w(f"    Ft{ci} = coulomb(md{ci}, Fn{ci}, {self.P(pre + 'friction.mu')})")
             elif f.law == "ambrosio" and f.mu > 0:
                 self.w(f"Ft{ci} = ambrosio(vt{ci}, Fn{ci}, {self.P(pre + 'friction.mu')}, "
                        f"{self.P(pre + 'friction.v0')}, {self.P(pre + 'friction.v1')})")
@@ -362,6 +443,42 @@ class Emitter:
             # power of the non-conservative part of the contact (damping, friction) on the system
             self.w(f"Pload += -(Fn{ci} - hertz(pen{ci}, 0.0, K, nexp))*ddot{ci} - Ft{ci}*vt{ci}")
         self.ind -= 1
+
+    def stick_row(self, ci: int, jn: str, coords: list[int]):
+        """Jacobian Jt{ci}_{k} = d vt / d qd_k and bias bt{ci} = d vt/dt at zero accelerations of
+        the joint's slip velocity vt = t.(vA - vB) + w_j R_j - w_b R_b (friction.slip_velocity,
+        t = (-ny, nx)): the acceleration-level stick constraint Jt qdd + bt = 0 (docs/contact-laws.md,
+        "Modes"). d t/dt = (-dny, dnx) with dn/dt = (de/dt - n ddot)/|e|."""
+        sc, t = self.scene, self.topo
+        j = sc.joints[jn]
+        bj, bb = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
+        pre = f"joints.{jn}."
+        rj = self.P(pre + "journal_radius")
+        rb = f"({rj} + {self.P(pre + 'clearance')})"
+        acc = {}
+        for b, tag in ((bj, f"A{ci}"), (bb, f"B{ci}")):
+            if b == GROUND:
+                acc[tag] = ("0.0", "0.0", "0.0")
+            else:
+                self.w(f"{tag}ax = ax{b} - al{b}*{tag}dy - w{b}*w{b}*{tag}dx; "
+                       f"{tag}ay = ay{b} + al{b}*{tag}dx - w{b}*w{b}*{tag}dy")
+                acc[tag] = (f"{tag}ax", f"{tag}ay", f"al{b}")
+        (aax, aay, aal), (bax, bay, bal) = acc[f"A{ci}"], acc[f"B{ci}"]
+        self.w(f"dnx{ci} = 0.0; dny{ci} = 0.0")
+        self.w(f"if ecc{ci} > 0.0:")
+        self.w(f"    dnx{ci} = (dex{ci} - nx{ci}*ddot{ci})/ecc{ci}; dny{ci} = (dey{ci} - ny{ci}*ddot{ci})/ecc{ci}")
+        self.w(f"bt{ci} = -dny{ci}*dex{ci} + dnx{ci}*dey{ci} - ny{ci}*({aax} - {bax}) + nx{ci}*({aay} - {bay}) "
+               f"+ {rj}*{aal} - {rb}*{bal}")
+        anc_j = set(t.ancestors(bj)) if bj != GROUND else set()
+        anc_b = set(t.ancestors(bb)) if bb != GROUND else set()
+        for k in coords:
+            terms = []
+            for anc, tag, sign, R in ((anc_j, f"A{ci}", "+", rj), (anc_b, f"B{ci}", "-", rb)):
+                if k not in anc:
+                    continue
+                jx, jy, jt = self.jac(k, f"{tag}x", f"{tag}y")
+                terms.append(f"{sign}(-ny{ci}*{jx} + nx{ci}*{jy}" + (f" + {R}" if jt == "1.0" else "") + ")")
+            self.w(f"Jt{ci}_{k} = {' '.join(terms) if terms else '0.0'}")
 
     # --- mass matrix and bias ------------------------------------------------------------
     def mass_matrix(self, coords: list[int], arr: bool):
@@ -518,7 +635,7 @@ def columns(scene: Scene, topo: Topology) -> list[str]:
 
 
 def event_count(scene: Scene, topo: Topology) -> int:
-    return len(topo.clearance) + sum(1 for ld in scene.loads if ld.modulation in ("crank_halves", "angle_threshold"))
+    return ZLayout(scene, topo).n_events
 
 
 def generate(scene: Scene, topo: Topology, layout) -> str:
@@ -532,8 +649,12 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
     speed_mode = crank is not None and crank in t.rheonomic
     S_obs = S + ([crank] if speed_mode else [])
     n_ind = len(t.independent)
+    ZL = E.Z
+    hyb = ZL.hybrid
 
     def body(observe: bool):
+        """The dynamics' lines (indent 1); E's current lines are left as they were."""
+        saved = E.lines, E.ind
         E.lines = []
         E.ind = 1
         E.coords_from_state("obs" if observe else "rhs")
@@ -548,17 +669,22 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w(f"Tm = {E.P('driver.torque')} - {E.P('driver.torque_slope')}*(qd{crank} - {E.P('driver.speed')})")
             E.w(f"Q{crank} += Tm")
         n = len(S)
-        if not loops:
+        if not (loops or hyb):
             E.mass_matrix(coords, arr=False)
             if n:
                 E.ldl_solve(n, [f"Q{k}" for k in S], [f"qdd{k}" for k in S])
         else:
+            # augmented system [M Phi_q^T; Phi_q 0]: loop closures, then one row per hybrid Coulomb
+            # joint: its stick constraint Jt qdd = -bt in stick mode, else lam = 0 (identity row)
             m = 2 * len(t.cuts)
+            nh = len(hyb)
+            N = n + m + nh
             nn = len(coords)
             E.w(f"Mm = np.empty(({nn}, {nn}))")
             E.mass_matrix(coords, arr=True)
-            E.cut_terms(coords, bias=True)
-            E.w(f"A = np.zeros(({n + m}, {n + m})); bb = np.empty({n + m})")
+            if loops:
+                E.cut_terms(coords, bias=True)
+            E.w(f"A = np.zeros(({N}, {N})); bb = np.empty({N})")
             E.w(f"A[:{n}, :{n}] = Mm[:{n}, :{n}]")
             for i, k in enumerate(S):
                 E.w(f"bb[{i}] = Q{k}")
@@ -566,14 +692,31 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
                     E.w(f"A[{n + r}, {i}] = Jc{r}_{k}; A[{i}, {n + r}] = Jc{r}_{k}")
             for r in range(m):
                 E.w(f"bb[{n + r}] = -ab{r}")
+            for h, ci in enumerate(hyb):
+                r = n + m + h
+                E.w(f"if z[{ZL.mode[ci]}] == 2.0:")
+                E.ind += 1
+                for i, k in enumerate(S):
+                    E.w(f"A[{r}, {i}] = Jt{ci}_{k}; A[{i}, {r}] = Jt{ci}_{k}")
+                E.w(f"bb[{r}] = -bt{ci}")
+                E.ind -= 1
+                E.w("else:")
+                E.w(f"    A[{r}, {r}] = 1.0; bb[{r}] = 0.0")
             E.w("sol = np.linalg.solve(A, bb)")
             for i, k in enumerate(S):
                 E.w(f"qdd{k} = sol[{i}]")
             for r in range(m):
                 E.w(f"lam{r} = sol[{n + r}]")
+            for h, ci in enumerate(hyb):
+                # the stick force along the slip direction (the sign convention of friction.py:
+                # applied opposite on the journal): Q = M qdd + Jt^T Ft
+                E.w(f"if z[{ZL.mode[ci]}] == 2.0:")
+                E.w(f"    Ft{ci} = sol[{n + m + h}]")
         for k in t.rheonomic:
             E.w(f"qdd{k} = 0.0")
-        return list(E.lines)
+        res = list(E.lines)
+        E.lines, E.ind = saved
+        return res
 
     # rhs
     out.append("@njit(cache=True, fastmath=False)")
@@ -599,30 +742,77 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         else:
             E.positions()
 
-    # events: penetration of each clearance joint, load switches
-    start_positions()
+    # events: penetration of each clearance joint, load switches, slip/stick of hybrid joints
+    if hyb:
+        # the slip velocity and the stick force need the whole dynamics (the stick multiplier)
+        E.lines, E.ind = body(False), 1
+    else:
+        start_positions()
     for ci, jn in enumerate(t.clearance):
         j = scene.joints[jn]
-        E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=False)
-        E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=False)
+        if not hyb:
+            E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=False)
+            E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=False)
         E.w(f"g[{ci}] = np.sqrt((A{ci}x - B{ci}x)**2 + (A{ci}y - B{ci}y)**2) - "
             f"{E.P(f'joints.{jn}.clearance')}")
-    ei = len(t.clearance)
     for i, ld in enumerate(scene.loads):
         if ld.modulation == "crank_halves":
-            E.w(f"g[{ei}] = np.sin(q{crank})")
-            ei += 1
+            E.w(f"g[{ZL.ev_load[i]}] = np.sin(q{crank})")
         elif ld.modulation == "angle_threshold":
-            E.w(f"g[{ei}] = th{t.body_index(ld.body)} - {E.P(f'loads.{i}.threshold')}")
-            ei += 1
+            E.w(f"g[{ZL.ev_load[i]}] = th{t.body_index(ld.body)} - {E.P(f'loads.{i}.threshold')}")
+    for ci in hyb:
+        jn = t.clearance[ci]
+        md = f"z[{ZL.mode[ci]}]"
+        # slip velocity, positive while slipping in the mode's direction; stick margin mu_s Fn - |Ft|
+        E.w(f"hv{ci} = 1.0")
+        E.w(f"if {md} == 1.0 or {md} == -1.0:")
+        E.w(f"    hv{ci} = {md}*(vt{ci} - z[{ZL.vt0[ci]}])")
+        E.w(f"g[{ZL.ev_v[ci]}] = z[{ZL.sig_v[ci]}]*hv{ci}")
+        E.w(f"hf{ci} = 1.0")
+        E.w(f"if {md} == 2.0:")
+        E.w(f"    hf{ci} = {E.P(f'joints.{jn}.friction.mu_s')}*Fn{ci} - abs(Ft{ci})")
+        E.w(f"g[{ZL.ev_f[ci]}] = z[{ZL.sig_f[ci]}]*hf{ci}")
+    if ZL.clamp and not hyb:
+        E.velocities(bias=False)
+    for ci in ZL.clamp:
+        jn = t.clearance[ci]
+        j = scene.joints[jn]
+        if not hyb:
+            E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=True)
+            E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=True)
+        pre = f"joints.{jn}."
+        E.w(f"exc = A{ci}x - B{ci}x; eyc = A{ci}y - B{ci}y; eccc = np.sqrt(exc*exc + eyc*eyc)")
+        E.w(f"ddc = ((A{ci}vx - B{ci}vx)*exc + (A{ci}vy - B{ci}vy)*eyc)/eccc if eccc > 0.0 else 0.0")
+        E.w(f"pc = max(eccc - {E.P(pre + 'clearance')}, 0.0)")
+        # the unclamped force: positive in contact, negative once clamped; 1 (inactive) when free
+        E.w(f"Fr{ci} = {E.P(pre + 'contact.stiffness')}*pc**{E.P(pre + 'contact.exponent')} + "
+            f"{E.P(pre + 'contact.damping')}*ddc")
+        E.w(f"hc{ci} = Fr{ci} if z[{ci}] > 0.0 else (-Fr{ci} if z[{ci}] < 0.0 else 1.0)")
+        E.w(f"g[{ZL.ev_c[ci]}] = z[{ZL.sig_c[ci]}]*hc{ci}")
     out.append("@njit(cache=True)")
     out.append("def events(t, y, p, z, g):")
     out += E.lines + ["    return", ""]
     events_src = "\n".join(["def events(t, y, p, z, g):"] + E.lines + ["    return"])
 
-    # on_event: record the approach velocity at contact onset
+    def stick_checks(lines_only_if: str):
+        """After a tentative stick (mode 2): keep it if |Ft| <= mu_s Fn, else slip in the direction
+        of the force (Filippov's rules, docs/contact-laws.md)."""
+        for ci in hyb:
+            jn = t.clearance[ci]
+            md = f"z[{ZL.mode[ci]}]"
+            cond = lines_only_if.format(ci=ci, ev_v=ZL.ev_v.get(ci), ev_f=ZL.ev_f.get(ci))
+            E.w(f"if {cond}{md} == 2.0:")
+            E.ind += 1
+            E.w(f"if chk{ci} == 2 or abs(Ft{ci}) > {E.P(f'joints.{jn}.friction.mu_s')}*Fn{ci}:")
+            E.w(f"    {md} = 1.0 if Ft{ci} >= 0.0 else -1.0")
+            E.w(f"    z[{ZL.vt0[ci]}] = vt{ci}")
+            E.ind -= 1
+
+    # on_event: record the approach velocity at contact onset, switch loads and friction modes
     start_positions()
     E.velocities(bias=False)
+    for ci in hyb:
+        E.w(f"chk{ci} = 0")
     for ci, jn in enumerate(t.clearance):
         j = scene.joints[jn]
         E.w(f"if k == {ci}:")
@@ -636,12 +826,113 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         E.w(f"    z[{ci}] = max(vn, {E.P(f'joints.{jn}.contact.min_approach_velocity')})")
         E.w("else:")
         E.w(f"    z[{ci}] = 0.0")
+        if ci in ZL.mode:
+            # onset: slip in the direction of the slip velocity (a tentative stick, checked below,
+            # if it is exactly zero); separation: free
+            bj, bb = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
+            rj = E.P(f"joints.{jn}.journal_radius")
+            wj = "0.0" if bj == GROUND else f"w{bj}"
+            wb = "0.0" if bb == GROUND else f"w{bb}"
+            E.w("if direction > 0:")
+            E.ind += 1
+            E.w("nx_ = ex/ecc if ecc > 0.0 else 1.0; ny_ = ey/ecc if ecc > 0.0 else 0.0")
+            E.w(f"vt_ = slip_velocity(A{ci}vx - B{ci}vx, A{ci}vy - B{ci}vy, nx_, ny_, {wj}, {wb}, {rj}, "
+                f"{rj} + {E.P(f'joints.{jn}.clearance')})")
+            E.w(f"z[{ZL.mode[ci]}] = 1.0 if vt_ > 0.0 else (-1.0 if vt_ < 0.0 else 2.0)")
+            E.w(f"z[{ZL.vt0[ci]}] = 0.0")
+            E.w(f"chk{ci} = 1")
+            E.ind -= 1
+            E.w("else:")
+            E.w(f"    z[{ZL.mode[ci]}] = 0.0")
+        E.ind -= 1
+    for i, ld in enumerate(scene.loads):
+        if ld.modulation in SWITCHED:
+            up = "1.0" if ld.modulation == "crank_halves" else "-1.0"
+            E.w(f"if k == {ZL.ev_load[i]}:")
+            E.w(f"    z[{ZL.load[i]}] = {up} if direction > 0 else -{up}")
+    for ci in ZL.clamp:
+        E.w(f"if k == {ZL.ev_c[ci]}:")         # hertz_damped: clamped <-> pressing (kink located)
+        E.w(f"    z[{ZL.sig_c[ci]}] = 1.0 if direction > 0 else -1.0")
+        E.w(f"    z[{ci}] = -z[{ci}]")
+    for ci in hyb:
+        md = f"z[{ZL.mode[ci]}]"
+        E.w(f"if k == {ZL.ev_v[ci]}:")         # slip velocity reached zero: tentative stick
+        E.ind += 1
+        E.w(f"z[{ZL.sig_v[ci]}] = 1.0 if direction > 0 else -1.0")
+        E.w(f"if {md} == 1.0 or {md} == -1.0:")
+        E.w(f"    {md} = 2.0")
+        E.w(f"    chk{ci} = 1")
+        E.ind -= 1
+        E.w(f"if k == {ZL.ev_f[ci]}:")         # stick force reached mu_s Fn: slip along the force
+        E.ind += 1
+        E.w(f"z[{ZL.sig_f[ci]}] = 1.0 if direction > 0 else -1.0")
+        E.w(f"if {md} == 2.0:")
+        E.w(f"    chk{ci} = 2")
+        E.ind -= 1
+    if hyb:
+        E.w("if " + " or ".join(f"chk{ci} > 0" for ci in hyb) + ":")
+        E.ind += 1
+        E.lines += ["    " + ln for ln in body(False)]
+        stick_checks("chk{ci} > 0 and ")
         E.ind -= 1
     out.append("@njit(cache=True)")
     out.append("def on_event(k, direction, t, y, p, z):")
     out += E.lines + ["    return 0", ""]
     on_event_src = "\n".join(["def on_event(k, direction, t, y, p, z):"] + E.lines
                               + ["    return 0"])
+
+    # init_modes: the discrete state's branches from a continuous state (the start of a run)
+    start_positions()
+    E.velocities(bias=False)
+    for i, ld in enumerate(scene.loads):
+        if ld.modulation == "crank_halves":
+            # the branch sin(q) >= 0 ... on exactly zero, the side the crank is turning to
+            E.w(f"sq = np.sin(q{crank})")
+            E.w(f"if sq == 0.0:")
+            E.w(f"    sq = qd{crank}*np.cos(q{crank})")
+            E.w(f"z[{ZL.load[i]}] = 1.0 if sq >= 0.0 else -1.0")
+        elif ld.modulation == "angle_threshold":
+            b = t.body_index(ld.body)
+            E.w(f"z[{ZL.load[i]}] = 1.0 if th{b} <= {E.P(f'loads.{i}.threshold')} else -1.0")
+    for ci, jn in enumerate(t.clearance):
+        j = scene.joints[jn]
+        hd = j.contact.law == "hertz_damped"
+        if not (hd or ci in ZL.mode):
+            continue
+        bj, bb = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
+        E.world_point(bj, j.points[0], f"A{ci}")
+        E.world_point(bb, j.points[1], f"B{ci}")
+        E.w(f"ex = A{ci}x - B{ci}x; ey = A{ci}y - B{ci}y")
+        E.w("ecc = np.sqrt(ex*ex + ey*ey)")
+        E.w(f"inc = ecc - {E.P(f'joints.{jn}.clearance')} > 0.0")
+        if hd:
+            pre = f"joints.{jn}."
+            E.w(f"ddc = ((A{ci}vx - B{ci}vx)*ex + (A{ci}vy - B{ci}vy)*ey)/ecc if ecc > 0.0 else 0.0")
+            E.w(f"Frc = {E.P(pre + 'contact.stiffness')}*max(ecc - {E.P(pre + 'clearance')}, 0.0)**"
+                f"{E.P(pre + 'contact.exponent')} + {E.P(pre + 'contact.damping')}*ddc")
+            E.w(f"z[{ci}] = 0.0 if not inc else ({E.P(pre + 'contact.min_approach_velocity')} if Frc > 0.0 "
+                f"else -{E.P(pre + 'contact.min_approach_velocity')})")
+            E.w(f"z[{ZL.sig_c[ci]}] = 1.0")
+        if ci in ZL.mode:
+            rj = E.P(f"joints.{jn}.journal_radius")
+            wj = "0.0" if bj == GROUND else f"w{bj}"
+            wb = "0.0" if bb == GROUND else f"w{bb}"
+            E.w("nx_ = ex/ecc if ecc > 0.0 else 1.0; ny_ = ey/ecc if ecc > 0.0 else 0.0")
+            E.w(f"vt_ = slip_velocity(A{ci}vx - B{ci}vx, A{ci}vy - B{ci}vy, nx_, ny_, {wj}, {wb}, {rj}, "
+                f"{rj} + {E.P(f'joints.{jn}.clearance')})")
+            # a slip velocity within round-off of zero (1e-12 of the speeds that make it) is zero
+            E.w(f"vs_ = 1e-12*(abs(A{ci}vx - B{ci}vx) + abs(A{ci}vy - B{ci}vy) + abs({wj}*{rj}) + "
+                f"abs({wb}*({rj} + {E.P(f'joints.{jn}.clearance')})))")
+            E.w(f"z[{ZL.mode[ci]}] = 0.0 if not inc else (1.0 if vt_ > vs_ else (-1.0 if vt_ < -vs_ else 2.0))")
+            E.w(f"z[{ZL.sig_v[ci]}] = 1.0; z[{ZL.sig_f[ci]}] = 1.0; z[{ZL.vt0[ci]}] = 0.0")
+    if hyb:
+        for ci in hyb:
+            E.w(f"chk{ci} = 1")
+        E.lines += body(False)
+        stick_checks("")
+    out.append("@njit(cache=True)")
+    out.append("def init_modes(t, y, p, z):")
+    out += E.lines + ["    return", ""]
 
     # observe
     out.append("@njit(cache=True)")
@@ -684,7 +975,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         w(f"row[{ci_['driver.angle']}] = q{crank}; row[{ci_['driver.speed']}] = qd{crank}")
         if speed_mode:
             terms = []
-            if not loops:
+            if not (loops or hyb):
                 pos = {k: i for i, k in enumerate(S_obs)}
                 c = pos[crank]
                 for k in S:
@@ -696,6 +987,8 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
                     terms.append(f"Mm[{c}, {i}]*qdd{k}")
                 for r in range(2 * len(t.cuts)):
                     terms.append(f"Jc{r}_{crank}*lam{r}")
+            for h, ci in enumerate(hyb):
+                terms.append(f"(Jt{ci}_{crank}*Ft{ci} if z[{ZL.mode[ci]}] == 2.0 else 0.0)")
             w(f"tau = {' + '.join(terms) if terms else '0.0'} - Q{crank}")
         else:
             w("tau = Tm")

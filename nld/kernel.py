@@ -49,7 +49,19 @@ class Kernel:
 
     @property
     def n_z(self) -> int:
-        return len(self.topo.clearance) + len(self.topo.dependent)
+        return self.z_layout.n
+
+    @property
+    def z_layout(self):
+        """Where each discrete-state entry lives and the events' order (codegen.ZLayout)."""
+        from .codegen import ZLayout
+        return ZLayout(self.scene, self.topo)
+
+    def init_modes(self, t: float, y, p, z) -> None:
+        """Set the mode entries of z (switched loads, contact and stick/slip modes) consistently
+        with the continuous state (t, y), in place (the kernel's generated ``init_modes``)."""
+        self.module.init_modes(float(t), np.ascontiguousarray(y, dtype=float),
+                               np.ascontiguousarray(p, dtype=float), z)
 
     def params(self, scene: Scene | None = None) -> np.ndarray:
         """Parameter vector of ``scene`` (default: the scene compiled) for this kernel."""

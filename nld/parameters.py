@@ -65,7 +65,8 @@ def build_layout(scene: Scene) -> ParamLayout:
         if j.has_clearance:
             for k in ("clearance", "journal_radius", "contact.stiffness", "contact.exponent",
                       "contact.restitution", "contact.damping", "contact.min_approach_velocity",
-                      "friction.mu", "friction.v0", "friction.v1", "friction.tangential_damping"):
+                      "friction.mu", "friction.v0", "friction.v1", "friction.tangential_damping",
+                      "friction.mu_s"):
                 L.add(f"joints.{j.name}.{k}")
     if scene.driver is not None:
         for k in ("speed", "angle0", "inertia", "torque", "torque_slope"):
@@ -128,6 +129,7 @@ def pack(scene: Scene, layout: ParamLayout) -> np.ndarray:
             put(pre + "friction.v0", j.friction.v0)
             put(pre + "friction.v1", j.friction.v1)
             put(pre + "friction.tangential_damping", j.friction.tangential_damping)
+            put(pre + "friction.mu_s", j.friction.mu if j.friction.mu_s is None else j.friction.mu_s)
     d = scene.driver
     if d is not None:
         for k in ("speed", "angle0", "inertia", "torque", "torque_slope"):

@@ -43,7 +43,7 @@ BODY_KEYS = ("mass", "inertia", "points", "angle0")
 JOINT_KEYS = ("type", "bodies", "points", "clearance", "journal_radius", "axis", "contact", "friction")
 CONTACT_KEYS = ("law", "stiffness", "young", "poisson", "exponent", "restitution", "damping",
                 "min_approach_velocity")
-FRICTION_KEYS = ("law", "mu", "v0", "v1", "tangential_damping")
+FRICTION_KEYS = ("law", "mu", "v0", "v1", "tangential_damping", "mu_s")
 DRIVER_KEYS = ("joint", "mode", "speed", "angle0", "inertia", "torque", "torque_slope")
 MODULATION_KEYS = ("modulation", "threshold", "table_angles", "table_values")
 LOAD_KEYS_BY_TYPE = {
@@ -673,11 +673,19 @@ def _friction(f: dict, path: str) -> Friction:
     v1 = _num(f, "v1", path, "m/s", d.v1)
     if not v1 > v0:
         raise SceneError(f"{path}.v1", f.get("v1", d.v1), f"must be > v0 = {v0!r} (m/s)")
+    mu = _num(f, "mu", path, None, d.mu, ge=0)
+    mu_s = None
+    if f.get("mu_s") is not None:     # static coefficient of the coulomb law's stick mode (>= mu)
+        mu_s = _num(f, "mu_s", path, None, ge=0)
+        if not mu_s >= mu:
+            raise SceneError(f"{path}.mu_s", f["mu_s"], f"must be >= mu = {mu!r} (static >= kinetic "
+                             "friction coefficient, -)")
     return Friction(
         law=_choice(f, "law", path, FRICTION_LAWS, d.law),
-        mu=_num(f, "mu", path, None, d.mu, ge=0),
+        mu=mu,
         v0=v0, v1=v1,
         tangential_damping=_num(f, "tangential_damping", path, "N s/m", d.tangential_damping, ge=0),
+        mu_s=mu_s,
     )
 
 
@@ -888,7 +896,7 @@ _UNITS = {
     "joints.*.contact.stiffness": "N/m^n", "joints.*.contact.young": "Pa", "joints.*.contact.poisson": "-",
     "joints.*.contact.exponent": "-", "joints.*.contact.restitution": "-",
     "joints.*.contact.damping": "N s/m", "joints.*.contact.min_approach_velocity": "m/s",
-    "joints.*.friction.mu": "-", "joints.*.friction.v0": "m/s", "joints.*.friction.v1": "m/s",
+    "joints.*.friction.mu": "-", "joints.*.friction.mu_s": "-", "joints.*.friction.v0": "m/s", "joints.*.friction.v1": "m/s",
     "joints.*.friction.tangential_damping": "N s/m",
     "driver.speed": "rad/s", "driver.angle0": "rad", "driver.inertia": "kg m^2", "driver.torque": "N m",
     "driver.torque_slope": "N m s/rad",

@@ -43,6 +43,7 @@ class Friction:
     v0: float = 1e-4                 # m/s
     v1: float = 1e-2                 # m/s
     tangential_damping: float = 0.0  # N s/m
+    mu_s: float | None = None        # static coefficient (coulomb stick), None: = mu
 
 
 @dataclass

@@ -219,14 +219,17 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
     return np.concatenate([pos, pos * wref])
 
 
-def initial_state(kernel: Kernel):
-    """State y0 (independent coordinates and speeds) and discrete state z0 of the assembled scene."""
+def initial_state(kernel: Kernel, t0: float = 0.0):
+    """State y0 (independent coordinates and speeds) and discrete state z0 of the assembled scene
+    (modes of switched loads, contacts and friction set from the state at t0: Kernel.init_modes)."""
     from .assembly import initial_coordinates
     q, qd = initial_coordinates(kernel.scene, kernel.topo)
     ind = kernel.topo.independent
     y0 = np.concatenate([q[ind], qd[ind]])
     z0 = np.zeros(kernel.n_z)
-    z0[len(kernel.topo.clearance):] = q[kernel.topo.dependent]
+    nc, nd = len(kernel.topo.clearance), len(kernel.topo.dependent)
+    z0[nc:nc + nd] = q[kernel.topo.dependent]
+    kernel.init_modes(t0, y0, kernel.params(), z0)
     return y0, z0, q
 
 
@@ -329,7 +332,11 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     if y0 is None or z0 is None:
         y0_, z0_, q_init = initial_state(kern)
         y0 = y0_ if y0 is None else _state_arg("y0", y0, kern.n_state)
-        z0 = z0_ if z0 is None else _state_arg("z0", z0, kern.n_z)
+        if z0 is None:
+            z0 = z0_.copy()
+            kern.init_modes(t0, y0, p, z0)     # the branches of this start state and parameters
+        else:
+            z0 = _state_arg("z0", z0, kern.n_z)
     else:
         y0, z0 = _state_arg("y0", y0, kern.n_state), _state_arg("z0", z0, kern.n_z)
         q_init = None
@@ -342,6 +349,8 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         interrupted = False
         with deferred() as sig:
             for i, t in enumerate(t_eval):
+                # nothing is integrated, so no event sets the modes: take them from the state
+                kern.module.init_modes(t, y0, p, z)
                 kern.module.observe(t, y0, p, z, rows[i])
                 if sig.requested:
                     sig.handled = interrupted = True
@@ -406,8 +415,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
             if sig.requested:
                 sig.handled = interrupted = True
         nl = min(int(n_logged), max_log)
-        names = kern.topo.clearance + [f"load{i}" for i, ld in enumerate(scene.loads)
-                                       if ld.modulation in ("crank_halves", "angle_threshold")]
+        names = kern.z_layout.event_names
         ev = pd.DataFrame({"t": ev_t[:nl], "joint": [names[k] for k in ev_k[:nl]], "direction": ev_dir[:nl]})
         y_final = Y[n_out - 1].copy() if n_out else np.asarray(y0, float)
         if status < 0:

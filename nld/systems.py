@@ -522,7 +522,8 @@ def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
 
 # ---------------------------------------------------------------- scenes
 def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
-                method: str = "dopri5", event_samples: int | None = None) -> ContinuousSystem:
+                method: str = "dopri5", event_samples: int | None = None,
+                y0=None) -> ContinuousSystem:
     """A mechanism scene as a :class:`ContinuousSystem`.
 
     scene_or_name: a Scene, a built-in scene name or a TOML path; overrides as for
@@ -535,6 +536,8 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     ``[scene] method``: analysis results do not change with a scene file's recommendation),
     "dop853" or "rodas" (the kernel's disk-cached ``solve_dop853`` / ``solve_rodas``).
     event_samples: as for :class:`ContinuousSystem` (default 3 interior samples per step).
+    y0: a start state instead of the assembled one (for a scene the ideal assembly cannot place,
+    e.g. a journal held off its bearing's centre); its discrete state from ``Kernel.init_modes``.
     """
     from .kernel import compile_scene
     from .scene import load_scene
@@ -552,7 +555,16 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     if kern.n_state == 0:
         raise InputError(f"scene {scene.name!r} has no free coordinates (a kinematic chain): "
                          "nothing to analyse")
-    y0, z0, q = initial_state(kern)
+    if y0 is None:
+        y0, z0, q = initial_state(kern)
+    else:
+        y0 = np.array(y0, dtype=float).ravel()
+        if y0.size != kern.n_state:
+            raise InputError(f"y0: must have {kern.n_state} entries (the scene's state), not {y0.size}")
+        q = np.zeros(len(kern.topo.coords))
+        q[kern.topo.independent] = y0[: len(kern.topo.independent)]
+        z0 = np.zeros(kern.n_z)
+        kern.init_modes(0.0, y0, kern.params(scene), z0)
     try:
         period = crank_period(scene)
     except InputError:

@@ -125,11 +125,10 @@ def test_stiff_rodas_at_tight_tolerance_stops_clearly():
         assert rep.passed, rep.summary()
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "rodas, rtol <= 1e-9, stiff damped contact (hertz_damped C = 2e6 N s/m, K = 1e10, 15 rad/s): "
-    "step size underflow (status -2) at t = 0.00677100674 s, the first contact onset, where the "
-    "damping force jumps by C * approach speed; rtol 1e-8 and 3e-9 run (6381 and 9455 steps)"))
 def test_stiff_rodas_at_tight_tolerance_succeeds():
+    """Until issue 14 rodas at rtol <= 1e-9 stopped with a step size underflow at the first contact
+    onset (t = 0.00677 s), where the damping force jumps by C * approach speed; the jump is now
+    applied at the located onset (hertz_damped contact mode)."""
     rep = run_case("stiff_damped_rodas_tight")
     assert rep.passed, rep.summary()
 
