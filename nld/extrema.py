@@ -123,14 +123,17 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
                       samples_per_rev: int = 14400, keep_every: int = 10, keep_revs: int | None = None,
                       refine_top: int = 4, peak_rtol: float = 1e-6, dense: int = 32,
                       min_width: float = 1e-12, max_iter: int = 40, absolute=True, overrides=None,
-                      max_steps: int = 200_000_000, kernel=None, progress=None) -> RevolutionRun:
+                      max_steps: int = 200_000_000, max_steps_per_rev: int | None = None, kernel=None,
+                      progress=None) -> RevolutionRun:
     """Run ``transient_revs + revs`` crank revolutions from the assembled state and locate the
     maximum of each of ``columns`` in each of the last ``revs`` revolutions (module docstring).
 
     samples_per_rev: detection samples per revolution; keep_every: the kept table holds every
     keep_every-th of them (its sampling is samples_per_rev / keep_every per revolution);
     keep_revs: revolutions kept in the table (default all, transient included; a column
-    ``steady`` marks the statistics part). absolute: bool or a dict column -> bool.
+    ``steady`` marks the statistics part). absolute: bool or a dict column -> bool. max_steps: for
+    the whole run; max_steps_per_rev: for any one revolution (a run whose step count explodes,
+    e.g. by mode chatter, stops there with the integrator's message instead of running on).
     maxima columns: ``rev`` (0 = first revolution after the transient), ``column``, ``t_start``
     (s), ``sampled`` (max over the kept samples of the revolution), ``detected`` (max over the
     detection samples), ``peak`` (refined), ``t_peak`` (s), ``iterations`` (zoom levels, summed
@@ -197,7 +200,8 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
                       delay=2.0) as bar:
         for k in range(total):
             te = np.ascontiguousarray(k * period + base)
-            out = solve(t, y, te, False, p, z, float(rtol), atol, h0, hmax, steps_left, n_ev, max_log)
+            cap = steps_left if max_steps_per_rev is None else min(steps_left, int(max_steps_per_rev))
+            out = solve(t, y, te, False, p, z, float(rtol), atol, h0, hmax, cap, n_ev, max_log)
             st_k, t_k, Y, n_k, stats_k = int(out[0]), float(out[1]), out[2], int(out[3]), out[4]
             Z = out[9]
             stats_k = np.asarray(stats_k, dtype=np.int64)[:5]
@@ -260,6 +264,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     settings = dict(revs=revs, transient_revs=transient_revs, rtol=float(rtol),
                     samples_per_rev=samples_per_rev, keep_every=keep_every, keep_revs=keep_revs,
                     refine_top=refine_top, peak_rtol=float(peak_rtol), dense=dense,
-                    min_width=min_width, max_iter=max_iter, period=period)
+                    min_width=min_width, max_iter=max_iter, period=period,
+                    max_steps_per_rev=max_steps_per_rev)
     return RevolutionRun(table, maxima, np.asarray(y, float), z, stats, int(status), message, float(t),
                          int(n_events_logged), time.perf_counter() - start, settings)

@@ -43,12 +43,20 @@ CITATION = ("Zhang Su-xia, Liu Xi-jun, Xu Long-xu, Hou Shu-jun (2013), \"Nonline
 # until the peak changes by less than peak_rtol. check_revs: revolutions run again with
 # check_factor x the detection samples (the same trajectory: the steps do not depend on the output
 # times) to show that the located peaks no longer depend on the sampling.
+# rtol: 1e-7 in every mode. At 1e-5 and 1e-6 the case r = 0.01 mm (journals in permanent contact,
+# f = 0.01) switches stick <-> slip at nearly every step (3e6 events in 3e6 steps within 1.7 s; at 1e-7:
+# 1.3e3 events in 1.9e5 steps over 6 revolutions), so no looser tolerance is offered.
+# max_steps_per_rev: about 20x what a revolution needs (3e4 - 5e4 steps), so that such a run stops
+# within seconds with the integrator's message.
 FULL = dict(transient_revs=2, steady_revs=20, plot_revs=3, rtol=1e-7, samples_per_rev=14400, keep_every=10,
-            refine_top=4, peak_rtol=1e-6, check_revs=3, check_factor=4, max_steps=200_000_000)
-QUICK = dict(transient_revs=1, steady_revs=5, plot_revs=2, rtol=1e-6, samples_per_rev=3600, keep_every=10,
-             refine_top=3, peak_rtol=1e-6, check_revs=1, check_factor=4, max_steps=50_000_000)
-SMOKE = dict(transient_revs=0, steady_revs=2, plot_revs=1, rtol=1e-5, samples_per_rev=1440, keep_every=4,
-             refine_top=2, peak_rtol=1e-6, check_revs=1, check_factor=2, max_steps=50_000_000)
+            refine_top=4, peak_rtol=1e-6, check_revs=3, check_factor=4, max_steps=200_000_000,
+            max_steps_per_rev=1_000_000)
+QUICK = dict(transient_revs=1, steady_revs=5, plot_revs=2, rtol=1e-7, samples_per_rev=3600, keep_every=10,
+             refine_top=3, peak_rtol=1e-6, check_revs=1, check_factor=4, max_steps=50_000_000,
+             max_steps_per_rev=1_000_000)
+SMOKE = dict(transient_revs=0, steady_revs=2, plot_revs=1, rtol=1e-7, samples_per_rev=1440, keep_every=4,
+             refine_top=2, peak_rtol=1e-6, check_revs=1, check_factor=2, max_steps=50_000_000,
+             max_steps_per_rev=1_000_000)
 # the quantities whose per-revolution maxima are located: summary name -> (column, absolute, unit)
 QUANTITIES = {"max |rod.omega|": ("rod.omega", True, "rad/s"), "max A.Fn": ("A.Fn", False, "N"),
               "max B.Fn": ("B.Fn", False, "N"), "max |driver.torque|": ("driver.torque", True, "N m")}
@@ -64,9 +72,9 @@ OMEGA1 = 15.6          # rad/s, the paper's crank speed (the scene's driver.spee
 ANALYSIS_FULL = dict(rtol=1e-8, estimator="tangent", d0=None, transient_revs=2, section_revs=50, lyap_revs=50,
                      clearances=[1e-5, 2e-5, 3e-5, 5e-5, 7e-5, 1e-4, 2e-4, 5e-4],
                      frictions=[0.0, 0.01, 0.02, 0.035, 0.05, 0.1])
-ANALYSIS_QUICK = dict(rtol=1e-5, estimator="tangent", d0=None, transient_revs=1, section_revs=2, lyap_revs=2,
+ANALYSIS_QUICK = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=1, section_revs=2, lyap_revs=2,
                       clearances=[1e-5, 5e-4], frictions=[0.0, 0.05, 0.1])
-ANALYSIS_SMOKE = dict(rtol=1e-5, estimator="tangent", d0=None, transient_revs=0, section_revs=1, lyap_revs=2,
+ANALYSIS_SMOKE = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=0, section_revs=1, lyap_revs=2,
                       clearances=[1e-5], frictions=[0.0])
 SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
@@ -135,7 +143,8 @@ def run_case(name: str, settings: dict, scene_name: str = SCENE) -> dict:
     cols = [c for c, _, _ in QUANTITIES.values()]
     absolute = {c: ab for c, ab, _ in QUANTITIES.values()}
     kw = dict(rtol=settings["rtol"], refine_top=settings["refine_top"], peak_rtol=settings["peak_rtol"],
-              absolute=absolute, overrides=overrides, max_steps=settings["max_steps"])
+              absolute=absolute, overrides=overrides, max_steps=settings["max_steps"],
+              max_steps_per_rev=settings.get("max_steps_per_rev"))
     t0 = time.perf_counter()
     run = revolution_maxima(scene_name, cols, revs=settings["steady_revs"],
                             transient_revs=settings["transient_revs"],
@@ -286,7 +295,9 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
     est = {}
     try:
         sec = stroboscopic(scene_name, transient_revs=an["transient_revs"], revs=an["section_revs"],
-                           observables=SECTION_OBS, overrides=ov, rtol=an["rtol"])
+                           observables=SECTION_OBS, overrides=ov, rtol=an["rtol"],
+                           max_steps=an.get("max_steps_per_rev", 1_000_000)
+                           * (an["transient_revs"] + an["section_revs"]))
         status, msg = ("ok", "") if sec.success else ("failed", sec.message)
         if sec.success:
             system = SceneSystem(scene_name, ov)
