@@ -89,7 +89,9 @@ def test_quick_writes_pdf_parquet_and_summary(quick_run):
     # (trends, figure by figure, why), 3 figures x 2 groups, 2 force pages, the phase plot, the chaos
     # analysis (text, exponent table, sections, 2 bifurcation diagrams, spectra), the run statistics
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 23
+    # (a text page longer than 30 wrapped lines continues on a second page: the intro and the
+    # figure-by-figure page may, depending on the numbers)
+    assert title_pages + 23 <= count_pages(pdf) <= title_pages + 26
     assert (out / "zhang2013_excavator.parquet").is_file()
     assert (out / "zhang2013_excavator_summary.csv").is_file()
 
