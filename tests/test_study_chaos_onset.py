@@ -94,3 +94,12 @@ def test_rerun_reads_finished_cells_back(quick_run):
     recomputed = (before.sort_values(["case", "iy", "ix"])["wall_s"].to_numpy()
                   != after.sort_values(["case", "iy", "ix"])["wall_s"].to_numpy())
     assert recomputed.sum() == 1        # only the removed cell ran again
+
+
+def test_full_excavator_grid_includes_mu_0_1():
+    """Coulomb friction as hybrid stick/slip modes (issue 14) puts μ = 0.1 back in the excavator's
+    full grid, at a tolerance where the small clearances do not chatter (rtol <= 1e-7)."""
+    from study_harness import load_study
+    ex = load_study("chaos_onset.py").FULL["excavator"]
+    assert max(ex["values_y"]) == pytest.approx(0.1)
+    assert ex["rtol"] <= 1e-7 and ex["rtol_check"] < ex["rtol"]
