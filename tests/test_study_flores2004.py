@@ -26,9 +26,9 @@ def test_quick_writes_pdf_and_data(quick_run):
     assert b"quick" in data                          # PDF keywords carry the mode
     # title page(s) + intro, key-number table, findings, why they differ, slider acceleration,
     # crank moment, orbits, contact force, 2 clearance-size pages, peaks vs clearance,
-    # per-revolution table, run statistics
+    # per-revolution table, run statistics; long text pages continue on up to 2 more pages
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 13
+    assert title_pages + 13 <= count_pages(pdf) <= title_pages + 15
     for f in ("flores2004.parquet", "flores2004_summary.csv", "flores2004_per_rev.csv"):
         assert (out / f).is_file(), f
 
