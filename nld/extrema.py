@@ -142,8 +142,6 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     from .integrators.dopri5 import status_message
     from .kernel import compile_scene
     from .progress import progress_bar
-    from .scene import load_scene
-    from .scene_model import Scene
     from .simulate import check_int, crank_period, event_log_size, initial_state, tolerances
     start = time.perf_counter()
     revs = check_int("revs", revs, 1)
@@ -157,13 +155,8 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
         raise InputError(f"peak_rtol = {peak_rtol!r}: must be a number in (0, 1)")
     if isinstance(columns, str):
         columns = [columns]
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene, overrides)
-    elif overrides:
-        from .scene import apply_overrides, scene_from_dict, scene_to_dict
-        raw = scene_to_dict(scene)
-        apply_overrides(raw, overrides)
-        scene = scene_from_dict(raw, scene.source)
+    from .scene import resolve_scene
+    scene = resolve_scene(scene, overrides)
     kern = kernel if kernel is not None else compile_scene(scene)
     unknown = [c for c in columns if c not in kern.columns]
     if unknown:

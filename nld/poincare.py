@@ -84,18 +84,10 @@ def _is_system(obj) -> bool:
 
 def _load(scene, overrides):
     """Scene from a Scene/name/path plus overrides (as nld.simulate does)."""
-    from .scene import load_scene
-    from .scene_model import Scene
+    from .scene import resolve_scene
     from .simulate import check_scene_arg
     check_scene_arg(scene)
-    if isinstance(scene, Scene):
-        if overrides:
-            from .scene import apply_overrides, scene_from_dict, scene_to_dict
-            raw = scene_to_dict(scene)
-            apply_overrides(raw, overrides)
-            return scene_from_dict(raw, scene.source)
-        return scene
-    return load_scene(scene, overrides)
+    return resolve_scene(scene, overrides)
 
 
 def default_observables(kernel) -> list[str]:

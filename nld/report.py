@@ -540,3 +540,19 @@ def save_study_data(data, path, provenance: dict | None) -> Path:
         df = data
     from .io import save_table
     return save_table(df, p, provenance)
+
+
+def ec_limit(*tables, floor: float = 1.15, columns=("B.ex/c", "B.ey/c")) -> float:
+    """A common limit of e/c axes (eccentricity over clearance, dimensionless; +-1 = the journal
+    touches the bearing): ``floor``, or 1.05 x the largest |e/c| in ``columns`` of the tables
+    where the contact penetration takes the journal further (small clearances at high load), so
+    that no section point is cut off."""
+    m = [floor]
+    for t in tables:
+        for col in columns:
+            if col in t.columns and len(t):
+                v = np.abs(t[col].to_numpy(float))
+                v = v[np.isfinite(v)]
+                if v.size:
+                    m.append(1.05 * float(v.max()))
+    return max(m)

@@ -23,7 +23,7 @@ from .errors import InputError, SceneError
 from .scene_model import (CONTACT_LAWS, DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES, MODULATIONS,
                           Body, Contact, Driver, Friction, Joint, Load, Scene)
 
-__all__ = ["builtin_scenes", "scene_path", "load_scene", "parse_override", "apply_overrides",
+__all__ = ["builtin_scenes", "scene_path", "load_scene", "resolve_scene", "parse_override", "apply_overrides",
            "scene_from_dict", "scene_to_dict", "format_scene", "validate",
            "Scene", "Body", "Joint", "Contact", "Friction", "Driver", "Load"]
 
@@ -198,6 +198,18 @@ def load_scene(name_or_path, overrides: dict[str, object] | list[str] | None = N
     if overrides:
         apply_overrides(raw, overrides)
     return scene_from_dict(raw, source=str(path))
+
+
+def resolve_scene(scene, overrides=None) -> Scene:
+    """A Scene from a Scene, a built-in scene name or a TOML path, with ``overrides`` (as for
+    ``nld --set``) applied; a Scene given without overrides is returned as it is."""
+    if isinstance(scene, Scene):
+        if not overrides:
+            return scene
+        raw = scene_to_dict(scene)
+        apply_overrides(raw, overrides)
+        return scene_from_dict(raw, scene.source)
+    return load_scene(scene, overrides)
 
 
 # ---------------------------------------------------------------------------------------------------

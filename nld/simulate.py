@@ -288,19 +288,13 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     behaviour before issue 13; docs/integrator.md, "Events"). Native methods only.
     """
     from .integrators.dopri5 import status_message
-    from .scene import load_scene
     check_scene_arg(scene)
     _check_run_args(t_end=t_end, revs=revs, samples_per_rev=samples_per_rev, t0=t0,
                     chunk_revs=chunk_revs, max_steps=max_steps, hmax=hmax)
     from .integrators.events import EVENT_SAMPLES, check_event_samples
     event_samples = EVENT_SAMPLES if event_samples is None else check_event_samples(event_samples)
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene, overrides)
-    elif overrides:
-        from .scene import apply_overrides, scene_from_dict, scene_to_dict
-        raw = scene_to_dict(scene)
-        apply_overrides(raw, overrides)
-        scene = scene_from_dict(raw, scene.source)
+    from .scene import resolve_scene
+    scene = resolve_scene(scene, overrides)
     if rtol is None:        # the scene's recommended tolerance (docs/performance.md), else 1e-8
         rtol = scene.rtol if scene.rtol is not None else DEFAULT_RTOL
     if method is None:

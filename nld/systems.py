@@ -540,17 +540,9 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     e.g. a journal held off its bearing's centre); its discrete state from ``Kernel.init_modes``.
     """
     from .kernel import compile_scene
-    from .scene import load_scene
     from .simulate import crank_period, initial_state, state_scales, tolerances
-    if isinstance(scene_or_name, str):
-        scene = load_scene(scene_or_name, overrides)
-    else:
-        scene = scene_or_name
-        if overrides:
-            from .scene import apply_overrides, scene_from_dict, scene_to_dict
-            raw = scene_to_dict(scene)
-            apply_overrides(raw, overrides)
-            scene = scene_from_dict(raw, scene.source)
+    from .scene import resolve_scene
+    scene = resolve_scene(scene_or_name, overrides)
     kern = kernel if kernel is not None else compile_scene(scene)
     if kern.n_state == 0:
         raise InputError(f"scene {scene.name!r} has no free coordinates (a kinematic chain): "

@@ -106,17 +106,9 @@ EC_LIM = 1.15
 
 
 def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes: EC_LIM, or more where the contact penetration takes the
-    journal further (small clearances at high load), so that no section point is cut off."""
-    m = [EC_LIM]
-    for t in tables:
-        for col in ("B.ex/c", "B.ey/c"):
-            if col in t.columns and len(t):
-                v = np.abs(t[col].to_numpy(float))
-                v = v[np.isfinite(v)]
-                if v.size:
-                    m.append(1.05 * float(v.max()))
-    return max(m)
+    """A common limit of the e/c axes (nld.report.ec_limit with this study's EC_LIM)."""
+    from nld.report import ec_limit
+    return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")

@@ -1,5 +1,6 @@
 """Shared helpers of the study tests (tests/test_study_*.py): load a study script, run its quick
-mode into a temporary directory, count the pages of a PDF."""
+mode into a temporary directory, count the pages of a PDF, record what a study puts into its
+report."""
 from __future__ import annotations
 
 import importlib.util
@@ -33,3 +34,59 @@ def run_quick(filename: str, tmp_path_factory, **kwargs):
     out = tmp_path_factory.mktemp(Path(filename).stem)
     pdf = study.main(quick=True, out_dir=out, **kwargs)
     return study, out, pdf
+
+
+class ReportRecorder:
+    """Records what the study puts into its Report (captions, the axes of each figure, table notes,
+    the title page's rows) while the quick run writes it."""
+
+    def __init__(self):
+        self.figures, self.tables, self.info = [], [], []
+
+    def __enter__(self):
+        rec = self
+        from nld.report import Report
+        self._orig = (Report.figure, Report.table, Report._info_lines)
+
+        def figure(rep, fig, caption=None):
+            sup = fig.get_suptitle()
+            axes = [dict(xlim=ax.get_xlim(), ylim=ax.get_ylim(), xlabel=ax.get_xlabel(),
+                         ylabel=ax.get_ylabel(), title=ax.get_title(),
+                         legend=[t.get_text() for t in ax.get_legend().get_texts()] if ax.get_legend() else [])
+                    for ax in fig.axes]
+            rec.figures.append(dict(title=sup, caption=caption or "", axes=axes))
+            return rec._orig[0](rep, fig, caption)
+
+        def table(rep, title, data, col_units=None, **kw):
+            rec.tables.append(dict(title=title, notes=" ".join(kw.get("notes") or []),
+                                   columns=list(getattr(data, "columns", []))))
+            return rec._orig[1](rep, title, data, col_units, **kw)
+
+        def info(rep, epoch):
+            rows = rec._orig[2](rep, epoch)
+            rec.info = rows
+            return rows
+
+        Report.figure, Report.table, Report._info_lines = figure, table, info
+        return self
+
+    def __exit__(self, *exc):
+        from nld.report import Report
+        Report.figure, Report.table, Report._info_lines = self._orig
+        return False
+
+    def figure(self, words: str) -> dict:
+        hits = [f for f in self.figures if words in f["title"]]
+        assert len(hits) == 1, (words, [f["title"] for f in self.figures])
+        return hits[0]
+
+    def wall_time(self) -> float:
+        row = dict(self.info).get("Wall time", "")
+        return float(row.split(" s")[0]) if row[:1].isdigit() else float("nan")
+
+
+def run_quick_recorded(filename: str, tmp_path_factory):
+    """(study module, output directory, PDF path, ReportRecorder) of the study's quick mode."""
+    with ReportRecorder() as rec:
+        study, out, pdf = run_quick(filename, tmp_path_factory)
+    return study, out, pdf, rec

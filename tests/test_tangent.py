@@ -195,7 +195,13 @@ def test_duffing_sum_and_linear_flow_exact():
     assert np.allclose(lin.exponents, -0.5, atol=1e-9)
 
 
-def test_user_jacobian_autodiff_and_fd_agree():
+@pytest.mark.parametrize("how", ["autodiff",
+                                 pytest.param("jacobian", marks=pytest.mark.slow),
+                                 pytest.param("fd", marks=pytest.mark.slow)])
+def test_user_jacobian_autodiff_and_fd_agree(how):
+    """A user ODE's tangent from its own Jacobian, from autodiff of its source, from finite
+    differences: each compiles its own tangent solver (about a minute cold), so the default run
+    keeps autodiff (the path the scenes use) and the other two are slow variants."""
     @njit
     def rhs(t, y, p, z, dy):
         dy[0] = p[0] * (y[1] - y[0])
@@ -211,14 +217,13 @@ def test_user_jacobian_autodiff_and_fd_agree():
     # + 4 sigma rho)) / 2 exactly (the leading eigenvalue of the Jacobian there)
     p = [10.0, 0.5, 8.0 / 3.0]
     exact = (-11.0 + math.sqrt(81.0 + 20.0)) / 2.0
-    for how, kw in (("jacobian", dict(jacobian=jac)), ("autodiff", {}), ("fd", dict(jvp="fd"))):
-        S = ContinuousSystem(rhs, [1.0, 1.0, 1.0], p, "lorenz-user", **kw)
-        r = lyapunov_tangent(S, transient=80.0, total=30.0)
-        assert r.settings["jacobian"] == how
-        assert r.exponent == pytest.approx(exact, abs=1e-4)
+    kw = {"jacobian": dict(jacobian=jac), "autodiff": {}, "fd": dict(jvp="fd")}[how]
+    S = ContinuousSystem(rhs, [1.0, 1.0, 1.0], p, "lorenz-user", **kw)
+    r = lyapunov_tangent(S, transient=80.0, total=30.0)
+    assert r.settings["jacobian"] == how
+    assert r.exponent == pytest.approx(exact, abs=1e-4)
     # chaotic parameters: the same estimate as the built-in Lorenz within the uncertainties
-    S = ContinuousSystem(rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "lorenz-user",
-                         jacobian=jac)
+    S = ContinuousSystem(rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "lorenz-user", **kw)
     a, b = lyapunov_tangent(S, total=200.0), lyapunov_tangent(lorenz(), total=200.0)
     assert abs(a.exponent - b.exponent) <= a.uncertainty + b.uncertainty
 
