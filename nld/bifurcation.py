@@ -50,6 +50,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import InputError
+from .interrupt import end_pool
 
 __all__ = ["sweep", "load_sweep", "parse_values", "add_arguments", "cli_bifurcation"]
 
@@ -560,28 +561,9 @@ def run_local(run_one, run_batch, payload, warm, todo, workers, batch_size, fini
         # Ctrl-C or an error: do not wait for the points in progress (they may take minutes)
         for f in futures:
             f.cancel()
-        _end_pool(ex)
+        end_pool(ex)
         raise
     ex.shutdown(wait=True)
-
-
-def _end_pool(ex) -> None:
-    """Terminate the worker processes of a ProcessPoolExecutor and release it without waiting."""
-    procs = list((getattr(ex, "_processes", None) or {}).values())
-    for p in procs:
-        try:
-            p.terminate()
-        except Exception:         # noqa: BLE001 - already gone
-            pass
-    try:
-        ex.shutdown(wait=False, cancel_futures=True)
-    except Exception:             # noqa: BLE001
-        pass
-    for p in procs:
-        try:
-            p.join(timeout=2.0)
-        except Exception:         # noqa: BLE001
-            pass
 
 
 def _dask_client(dask):

@@ -189,9 +189,16 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     n_events_logged = 0
     status, message = 0, ""
     y = np.ascontiguousarray(y, dtype=float)
-    with progress_bar(total=total, unit="rev", desc=f"maxima {scene.name}", enabled=progress,
-                      delay=2.0) as bar:
+    from .interrupt import deferred
+    interrupted = False
+    # SIGINT is deferred while the compiled integrator runs (numba's result boxing crashes on a
+    # pending KeyboardInterrupt) and honoured after the revolution in progress
+    with deferred() as sig, progress_bar(total=total, unit="rev", desc=f"maxima {scene.name}",
+                                         enabled=progress, delay=2.0) as bar:
         for k in range(total):
+            if sig.requested:
+                sig.handled = interrupted = True
+                break
             te = np.ascontiguousarray(k * period + base)
             cap = steps_left if max_steps_per_rev is None else min(steps_left, int(max_steps_per_rev))
             out = solve(t, y, te, False, p, z, float(rtol), atol, h0, hmax, cap, n_ev, max_log)
@@ -245,7 +252,10 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
             y = np.ascontiguousarray(Y[n_k - 1]).copy()
             t = float(te[-1])
             bar.update(1)
-    if status == 0:
+    if interrupted:
+        from .simulate import INTERRUPTED
+        status, message = INTERRUPTED, f"interrupted by Ctrl-C at t = {t:.9g} s"
+    elif status == 0:
         message = (f"reached t_end = {t:.9g} s ({int(st_main[1])} steps, {int(st_main[2])} rejected; "
                    f"{ref_steps} steps in the refinement windows)")
     table = pd.concat(kept, ignore_index=True) if kept else pd.DataFrame(columns=["t", *kern.columns])
@@ -259,5 +269,11 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
                     refine_top=refine_top, peak_rtol=float(peak_rtol), dense=dense,
                     min_width=min_width, max_iter=max_iter, period=period,
                     max_steps_per_rev=max_steps_per_rev)
-    return RevolutionRun(table, maxima, np.asarray(y, float), z, stats, int(status), message, float(t),
-                         int(n_events_logged), time.perf_counter() - start, settings)
+    run = RevolutionRun(table, maxima, np.asarray(y, float), z, stats, int(status), message, float(t),
+                        int(n_events_logged), time.perf_counter() - start, settings)
+    if interrupted:
+        from .errors import Interrupted
+        done = int(maxima["rev"].max()) + 1 if len(maxima) else 0
+        raise Interrupted(f"interrupted at t = {t:.9g} s", partial=run,
+                          kept=f"the maxima of {done} of {revs} revolutions (Interrupted.partial)")
+    return run

@@ -160,3 +160,22 @@ def ignore_in_worker() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     except (ValueError, OSError):
         pass
+
+
+def end_pool(ex) -> None:
+    """Terminate the worker processes of a ProcessPoolExecutor and release it without waiting."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    for p in procs:
+        try:
+            p.terminate()
+        except Exception:         # noqa: BLE001 - already gone
+            pass
+    try:
+        ex.shutdown(wait=False, cancel_futures=True)
+    except Exception:             # noqa: BLE001
+        pass
+    for p in procs:
+        try:
+            p.join(timeout=2.0)
+        except Exception:         # noqa: BLE001
+            pass

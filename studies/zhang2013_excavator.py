@@ -140,9 +140,19 @@ def _parallel(func_name: str, items: list, workers: int) -> list:
         sys.path.insert(0, folder)
     mod = importlib.import_module(Path(__file__).stem)
     fn = getattr(mod, func_name)
-    with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn")) as ex:
+    from nld.interrupt import end_pool, ignore_in_worker
+    # workers ignore SIGINT (it reaches the whole process group); on Ctrl-C or an error the main
+    # process ends the pool at once instead of waiting for points that may take minutes
+    ex = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn"),
+                             initializer=ignore_in_worker)
+    try:
         futs = [ex.submit(fn, *it) for it in items]
-        return [f.result() for f in futs]
+        res = [f.result() for f in futs]
+    except BaseException:
+        end_pool(ex)
+        raise
+    ex.shutdown(wait=True)
+    return res
 
 
 def run_case(name: str, settings: dict, scene_name: str = SCENE) -> dict:

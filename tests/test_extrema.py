@@ -64,3 +64,33 @@ def test_bad_input_is_a_clear_error(kw, words):
     cols = args.pop("columns")
     with pytest.raises(InputError, match=words):
         revolution_maxima("excavator", cols, **args)
+
+
+def test_ctrl_c_keeps_the_finished_revolutions(monkeypatch):
+    """A SIGINT request (as nld.interrupt.deferred records it) is honoured after the revolution in
+    progress: Interrupted is raised, its partial result holds the maxima of the finished
+    revolutions and says it was interrupted."""
+    import contextlib
+    import nld.interrupt
+    from nld.errors import Interrupted
+    from nld.simulate import INTERRUPTED
+
+    class Late:                      # the request "arrives" during the second revolution
+        handled = False
+        calls = 0
+
+        @property
+        def requested(self):
+            Late.calls += 1
+            return Late.calls > 2
+
+    @contextlib.contextmanager
+    def fake():
+        yield Late()
+    monkeypatch.setattr(nld.interrupt, "deferred", fake)
+    with pytest.raises(Interrupted) as e:
+        revolution_maxima("excavator", ["rod.omega"], revs=4, transient_revs=0, rtol=1e-6,
+                          samples_per_rev=720, keep_every=10, refine_top=1)
+    part = e.value.partial
+    assert part.status == INTERRUPTED and "interrupted" in part.message
+    assert sorted(part.maxima["rev"]) == [0, 1] and "2 of 4 revolutions" in e.value.kept
