@@ -124,3 +124,18 @@ def test_text_page_stays_inside_the_right_margin(tmp_path):
     fig.canvas.draw()
     right = max(t.get_window_extent().x1 for t in fig.texts) / fig.bbox.width
     assert right <= 1.0 - report._MARGIN
+
+
+def test_git_hash_from_the_environment_takes_precedence(monkeypatch):
+    """A batch copy names its commit in NLD_GIT_HASH; its own .git (possibly stale) is not asked."""
+    from nld import provenance
+    provenance.git_hash.cache_clear()
+    try:
+        monkeypatch.setenv("NLD_GIT_HASH", "abc1234")
+        assert provenance.git_hash() == "abc1234 (NLD_GIT_HASH)"
+        provenance.git_hash.cache_clear()
+        monkeypatch.delenv("NLD_GIT_HASH")
+        h = provenance.git_hash()
+        assert "NLD_GIT_HASH" not in h
+    finally:
+        provenance.git_hash.cache_clear()
