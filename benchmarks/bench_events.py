@@ -37,7 +37,7 @@ ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
 
 from nld.integrators import EVENT_SAMPLES  # noqa: E402
-from nld.simulate import simulate  # noqa: E402
+from nld.run.simulate import simulate  # noqa: E402
 
 CASES = {
     "slider_crank": (),

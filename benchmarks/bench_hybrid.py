@@ -5,7 +5,7 @@
 
 (i)  excavator, one crank revolution at rtol 1e-7 (the tolerance an exponent or a Poincare section
      needs), Coulomb friction f = mu at both clearance joints, f = 0.05 and 0.1 against f = 0:
-     steps, rejected steps, events, CPU time (``time.process_time`` of ``nld.simulate`` after a
+     steps, rejected steps, events, CPU time (``time.process_time`` of ``nld.run.simulate`` after a
      warm-up run that compiles the kernel; minimum over repeats) and their ratios to f = 0 in the
      same run. Issue 14 asks for <= 3x in steps and CPU time.
 (ii) slider_crank with hertz_damped contact (K d^1.5 + C d', C = 400 N s/m) against
@@ -14,7 +14,7 @@
      the clearance.
 
 Run it with another checkout first on PYTHONPATH to get the numbers of that code (the script
-uses only ``nld.simulate``). No timed asserts: the table goes to stdout and to ``--out``.
+uses only ``nld.run.simulate``). No timed asserts: the table goes to stdout and to ``--out``.
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ HERE = Path(__file__).resolve().parent
 if "PYTHONPATH" not in os.environ:
     sys.path.insert(0, str(HERE.parent))
 
-from nld.simulate import simulate  # noqa: E402
+from nld.run.simulate import simulate  # noqa: E402
 
 EXC_MU = (0.0, 0.05, 0.1)
 SC_LAWS = {"lankarani_nikravesh": [], "hertz_damped": ["joints.B.contact.law=hertz_damped",

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nld.lyapunov import lyapunov_benettin, lyapunov_tangent
-from nld.systems import SceneSystem, advance, lorenz
-from nld.tangent import run_tangent
+from nld.analysis.lyapunov import lyapunov_benettin, lyapunov_tangent
+from nld.systems.core import SceneSystem, advance, lorenz
+from nld.systems.tangent import run_tangent
 
 
 def cpu(f, repeat=1):

@@ -126,7 +126,7 @@ def numbalsoda_runs(setup, st, refs, log):
         from numba import carray, cfunc
     except Exception as exc:                                   # noqa: BLE001
         return f"numbalsoda could not be imported: {exc!r}"
-    from nld.simulate import state_scales
+    from nld.run.simulate import state_scales
     rhs, events = setup.kern.module.rhs, setup.kern.module.events
     n = int(setup.y0.size)
     NE = max(1, int(setup.kern.n_events))

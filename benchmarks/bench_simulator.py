@@ -6,7 +6,7 @@
 Two crank revolutions at 5000 rpm, rtol 1e-6 and 1e-8, in one run:
 
 (i)   the generated scene kernel through nld's dopri5 (the kernel module's ``solve``, the call
-      ``nld.simulate`` makes, with the same arguments: tolerances(kernel, q, rtol), hmax =
+      ``nld.run.simulate`` makes, with the same arguments: tolerances(kernel, q, rtol), hmax =
       period/20, contact events on), without the per-row observation that simulate adds
       afterwards, so both kernels do the same work;
 (ii)  the hand-written kernel (benchmarks/handwritten_slider_crank.py) through the same dopri5,
@@ -25,7 +25,7 @@ the approach velocity and restarting: what a scipy user has to do to integrate t
 Protocol (shared/references.md section 6): one warm-up run (it also compiles), then the minimum
 of several timed runs, timed in CPU time of the process (equal to wall-clock time on an idle
 machine; on a shared one wall-clock time also counts waiting for a core, so both are reported).
-nld is timed with simulate's event log (sized to the run: nld.simulate.event_log_size) and with a
+nld is timed with simulate's event log (sized to the run: nld.run.simulate.event_log_size) and with a
 1000-entry one: same steps; the difference is the cost of allocating the log (docs/performance.md). The error of every run is measured against a reference computed by a
 different method: scipy DOP853 at rtol 1e-12 (the same tolerance vector; for LN with terminal
 events at contact onset and loss), cross-checked against nld's dopri5 at rtol 1e-12. Errors are
@@ -59,13 +59,13 @@ import scipy  # noqa: E402
 from numba import njit  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from nld.kernel import drop_stale_numba_cache  # noqa: E402
+from nld.kernel.compile import drop_stale_numba_cache  # noqa: E402
 
 drop_stale_numba_cache(HERE / "handwritten_slider_crank.py")
 import handwritten_slider_crank as H  # noqa: E402
-from nld.kernel import compile_scene  # noqa: E402
-from nld.scene import load_scene  # noqa: E402
-from nld.simulate import crank_period, event_log_size, initial_state, tolerances  # noqa: E402
+from nld.kernel.compile import compile_scene  # noqa: E402
+from nld.model.scene import load_scene  # noqa: E402
+from nld.run.simulate import crank_period, event_log_size, initial_state, tolerances  # noqa: E402
 
 REVS = 2.0
 NLD_RTOLS = (1e-6, 1e-8)
@@ -78,11 +78,11 @@ WINDOW_REVS = 0.25           # error window (revolutions from the start); see be
 # revolution (hertz_damped, rtol 1e-8: 2.6e-8 m at 0.3 rev, 3.2e-6 m at 0.5 rev; the same jump for
 # the scipy runs): past 0.3 revolution the error measures the divergence of nearby chaotic
 # trajectories (a few Lyapunov times), not the integrator's accuracy.
-SAMPLES_PER_REV = 360        # nld.simulate's default output grid
+SAMPLES_PER_REV = 360        # nld.run.simulate's default output grid
 FINE_PER_REV = 7200          # output grid inside the error window (1.7 us at 5000 rpm)
 HD_DAMPING = 400.0           # N s/m: restitution 0.90 at 1 m/s (0.88-0.92 for 0.3-4 m/s), m = 0.14 kg
 MAX_STEPS = 50_000_000
-MAX_LOG = event_log_size(REVS)  # nld.simulate's event-log length for this run
+MAX_LOG = event_log_size(REVS)  # nld.run.simulate's event-log length for this run
 SMALL_LOG = 1_000            # enough for these runs (< 150 events): shows the cost of the log
 TARGET_RATIO = 1.3
 TARGET_SPEEDUP = 30.0
@@ -98,10 +98,10 @@ class Case:
     ph: np.ndarray
     y0: np.ndarray
     z0: np.ndarray
-    q: np.ndarray               # initial joint coordinates (for nld.simulate.tolerances)
+    q: np.ndarray               # initial joint coordinates (for nld.run.simulate.tolerances)
     period: float
     t_eval: np.ndarray
-    t_time: np.ndarray          # output times of the timed runs: nld.simulate's default grid
+    t_time: np.ndarray          # output times of the timed runs: nld.run.simulate's default grid
     window: np.ndarray          # bool mask of t_eval rows inside the error window
     t_window: float             # s, end of the error window (an element of t_eval)
     ref: dict = field(default_factory=dict)
@@ -151,13 +151,13 @@ def errors(case: Case, m: dict) -> tuple[float, float]:
 
 # ------------------------------------------------------------------ nld dopri5 runs
 def tol_vector(case: Case, rtol: float) -> np.ndarray:
-    """The 2n tolerance vector nld.simulate passes (atol, then per-state rtol weights)."""
+    """The 2n tolerance vector nld.run.simulate passes (atol, then per-state rtol weights)."""
     return tolerances(case.kern, case.q, rtol)
 
 
 def _dopri5(case: Case, kernel: str, rtol: float, t_eval: np.ndarray, max_log: int = MAX_LOG):
     """One run through the kernel module's ``solve`` (nld's dopri5 specialised for the kernel),
-    with the arguments nld.simulate passes to it."""
+    with the arguments nld.run.simulate passes to it."""
     mod, par = (case.kern.module, case.p) if kernel == "scene" else (H, case.ph)
     z = case.z0.copy()
     return mod.solve(0.0, case.y0.copy(), t_eval, False, par, z, float(rtol), tol_vector(case, rtol),
@@ -468,13 +468,13 @@ def main(argv=None) -> int:
         "(time.process_time; equal to wall-clock time on an idle machine, while on this shared one "
         "wall-clock time also counts waiting for a core; both are in the last table) spent in the "
         "integration only, no "
-        f"observation, output on nld.simulate's default {len(hd.t_time)} times (360 per revolution) "
+        f"observation, output on nld.run.simulate's default {len(hd.t_time)} times (360 per revolution) "
         "for every method. The warm-up run of each configuration is also its measured solve: it "
         f"outputs on {len(hd.t_eval)} times ({FINE_PER_REV} per revolution in the error window), "
         "which changes no step of any of the integrators. nld runs with simulate's arguments, "
         f"including its {MAX_LOG}-entry event log, and again with a {SMALL_LOG}-entry log (same "
         "steps; the difference is the cost of allocating the log). Tolerances: "
-        "nld.simulate.tolerances (positions absolute) and max step = period/20 for every method. Errors over the first "
+        "nld.run.simulate.tolerances (positions absolute) and max step = period/20 for every method. Errors over the first "
         f"{WINDOW_REVS:g} revolution against scipy DOP853 at rtol {REF_RTOL:g} (nld dopri5 at rtol "
         f"{REF_RTOL:g} differs from it by {hd.ref['check'][0]:.1e} m (hertz_damped) and "
         f"{ln.ref['check'][0]:.1e} m (lankarani_nikravesh)). Journal error: largest distance between "

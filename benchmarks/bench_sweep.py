@@ -5,7 +5,7 @@
 
 Measured, side by side with their targets (ratios only, nothing asserted):
 
-1. time per sweep point: a bifurcation sweep (nld.bifurcation.sweep) of the Flores slider-crank over
+1. time per sweep point: a bifurcation sweep (nld.analysis.bifurcation.sweep) of the Flores slider-crank over
    ``driver.speed`` (96 values, 300..600 rad/s, about 20 s on one core: 20 transient + 80 section revolutions per point, rtol
    1e-8), run in this process (workers=1): wall time / points, and the median of the per-point wall
    times stored in the point files;
@@ -16,7 +16,7 @@ Measured, side by side with their targets (ratios only, nothing asserted):
    T_dask / T2, the cluster started before the clock (a running cluster is what --dask addresses),
    the client.run warm-up of the workers included (target within 10 %, i.e. ratio <= 1.10);
 4. wall time to get the default slider-crank's largest exponent to two significant figures (target
-   < 20 s). "Two significant figures" uses the uncertainty nld.lyapunov returns
+   < 20 s). "Two significant figures" uses the uncertainty nld.analysis.lyapunov returns
    (``uncertainty`` = block standard error + history spread): lambda is known to two significant
    figures when uncertainty <= 5 % of |lambda| (half a unit of the second significant figure of a
    number with leading digit 1, the same relative bound in every decade; lambda ~ 10 per revolution:
@@ -61,13 +61,13 @@ def _load() -> str:
 
 
 def _point_walls(out: Path) -> list[float]:
-    from nld.bifurcation import _read_point
+    from nld.analysis.bifurcation import _read_point
     return [float(_read_point(p)["wall"]) for p in sorted(out.glob("point-*.parquet"))]
 
 
 def bench_sweeps(n_points: int, tmp: Path) -> dict:
     import pandas as pd
-    from nld.bifurcation import sweep
+    from nld.analysis.bifurcation import sweep
     values = [float(v) for v in np.linspace(300.0, 600.0, n_points)]
     r = dict(n_points=n_points, values=f"{values[0]:g}..{values[-1]:g} rad/s", **KW)
     # warm-up in this process: kernel from numba's disk cache, DOPRI5 specialisation
@@ -127,8 +127,8 @@ def two_sig_target(lam: float) -> float:
 
 def bench_exponent(rtol: float, pilot_revs: int = 50, max_revs: int = 2000,
                    budget_s: float = 75.0) -> dict:
-    from nld.lyapunov import lyapunov_benettin
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import lyapunov_benettin
+    from nld.systems.core import SceneSystem
     s = SceneSystem(SCENE)
     P = s.period
     lyapunov_benettin(s, transient=1 * P, total=2 * P, rtol=rtol)          # warm-up (compiled code)
@@ -181,7 +181,7 @@ def _fmt_ratio(v, target, better="high"):
 
 def write(res: dict, path: Path, argv) -> str:
     from nld import __version__
-    from nld.provenance import git_hash
+    from nld.output.provenance import git_hash
     s = res["sweep"]
     L = []
     L.append("# Parallel sweeps and the cost of an exponent (benchmarks/bench_sweep.py)\n")
@@ -251,7 +251,7 @@ def write(res: dict, path: Path, argv) -> str:
              f"{s['point_sum_1']:.3g} s) show the slowdown of each point when the 2 workers share the "
              "cores with other processes.\n")
     L.append("## Exponent to two significant figures\n")
-    L.append("Criterion: `uncertainty` (nld.lyapunov: block standard error of 20 blocks + half the range of "
+    L.append("Criterion: `uncertainty` (nld.analysis.lyapunov: block standard error of 20 blocks + half the range of "
              "the running estimate over its last half) ≤ 5 % of |λ1| (half a unit of the second "
              "significant figure for a leading digit 1; the same relative bound in every decade). "
              "Each run after the pilot is as long as u ∝ n^-1/2 predicts (× 1.2), within a budget of "

@@ -5,8 +5,8 @@ tolerances, 30 revolutions of transient, 100 averaged. Results in benchmarks/res
 Run: python benchmarks/tangent_error_control.py   (about 5 min CPU, compilation included)
 """
 import sys, time
-from nld.systems import SceneSystem
-from nld.lyapunov import lyapunov_tangent
+from nld.systems.core import SceneSystem
+from nld.analysis.lyapunov import lyapunov_tangent
 cases = {
   "slider_crank": [],
   "stiff_K1e12": ["joints.B.contact.stiffness=1e12"],

@@ -6,8 +6,8 @@ Results in docs/studies.md ("Verdict robustness"). Run: python benchmarks/verdic
 [case names]  (about 6 min on one core).
 """
 import sys, time
-from nld.systems import SceneSystem
-from nld.lyapunov import lyapunov_tangent
+from nld.systems.core import SceneSystem
+from nld.analysis.lyapunov import lyapunov_tangent
 cases = [  # name, scene, overrides, report rtol, report revs, transient revs
     ("rhee c=0.05mm mu=0.01", "four_bar", ["joints.B.clearance=5e-5", "joints.B.friction.mu=0.01"], 1e-8, 200, 100),
     ("rhee c=0.25mm mu=0", "four_bar", ["joints.B.friction.mu=0.0"], 1e-8, 200, 100),

@@ -1,7 +1,7 @@
 """``python -m nld``: the nld command line."""
 import sys
 
-from .cli import main
+from nld.cli import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -26,7 +26,7 @@ class SolveError(RuntimeError):
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C (SIGINT) during a long computation, raised after it stopped cleanly between two
     chunks of integration. ``partial`` holds what was computed (e.g. the
-    :class:`nld.simulate.SimulationResult` up to the interruption, ``status`` INTERRUPTED) or None;
+    :class:`nld.run.simulate.SimulationResult` up to the interruption, ``status`` INTERRUPTED) or None;
     ``kept`` says it in words. A subclass of KeyboardInterrupt, so code that does not know it
     stops as on any Ctrl-C."""
 

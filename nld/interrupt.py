@@ -16,7 +16,7 @@ The cure has two parts:
 
 * :func:`deferred` -- while a compiled call runs, SIGINT only sets a flag (a Python handler that
   does not raise, so nothing is raised inside numba's boxing); the caller checks
-  :attr:`Deferral.requested` between calls. ``nld.simulate`` integrates in chunks (one crank
+  :attr:`Deferral.requested` between calls. ``nld.run.simulate`` integrates in chunks (one crank
   revolution of simulated time by default) inside it, so it sees the request within one chunk and
   stops with what it has (:class:`nld.errors.Interrupted` carries the partial result).
 * :func:`install` -- the command line's process-wide handler: it raises ``KeyboardInterrupt`` as

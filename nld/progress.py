@@ -39,7 +39,7 @@ def progress_enabled(enabled: bool | None = None) -> bool:
     """Whether a bar with this ``enabled`` argument is shown (see the module docstring)."""
     if enabled is not None:
         if not isinstance(enabled, bool):
-            from .errors import InputError
+            from nld.errors import InputError
             raise InputError(f"progress = {enabled!r}: must be True, False or None (automatic)")
         return enabled
     if _DEFAULT is not None:
@@ -183,7 +183,7 @@ def split_progress(progress, on_item=None):
     if callable(progress) and not isinstance(progress, bool):
         return None, progress
     if progress is not None and not isinstance(progress, bool):
-        from .errors import InputTypeError
+        from nld.errors import InputTypeError
         raise InputTypeError(f"progress = {progress!r}: must be True, False, None (automatic) "
                              "or a callable(done, total, record)")
     return progress, on_item

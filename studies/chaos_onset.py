@@ -4,7 +4,7 @@
 
 For two mechanisms, the largest Lyapunov exponent (per crank revolution) over a grid of clearance size
 x friction coefficient, with the onset boundary (the lambda = 0 contour) drawn, by
-:func:`nld.chaos_map.chaos_map` (stroboscopic section, then the tangent-dynamics exponent with saltation
+:func:`nld.analysis.chaos_map.chaos_map` (stroboscopic section, then the tangent-dynamics exponent with saltation
 matrices at every contact event from its end, and the
 0-1 test of the section where it has >= 30 points):
 
@@ -74,7 +74,7 @@ def work_dir(out_dir: Path, name: str, mode: str) -> Path:
     run again resumes instead of starting over (the full mode takes about 31 min on 2 idle
     cores). The directory is tied to the git commit: cells computed by other code are not
     reused."""
-    from nld.provenance import git_hash
+    from nld.output.provenance import git_hash
     return Path(out_dir) / ".work" / f"{STEM}-{mode}-{name}-{git_hash()[:12]}"
 
 
@@ -82,7 +82,7 @@ def run_map(name: str, st: dict, workers: int, work: Path | None = None):
     """One exponent map; cells already in ``work`` (same settings) are read, not recomputed."""
     import shutil
 
-    from nld.chaos_map import chaos_map
+    from nld.analysis.chaos_map import chaos_map
     from nld.errors import InputError
     m = MAPS[name]
     t0 = time.perf_counter()
@@ -153,7 +153,7 @@ def boundary(name: str, df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _fig_map(rep, name, df, st, value="lambda"):
-    from nld.chaos_map import chaos_map_plot
+    from nld.analysis.chaos_map import chaos_map_plot
     m = MAPS[name]
     with rep.style():
         fig, ax = rep.subplots(1, 1, title=(f"{'Largest Lyapunov exponent' if value == 'lambda' else '0-1 test K'}"
@@ -228,7 +228,7 @@ def _texts(summ, bnd, maps, st_all, mode_label, walls):
         "clearance mechanism was found, so our values with their error bars are the reference.)",
         f"What is computed ({mode_label}): the map of the largest Lyapunov exponent λ1 over clearance x "
         "friction for the slider-crank (scene slider_crank_olyaei) and for the excavator (scene excavator, "
-        "A and B together), with nld.chaos_map.chaos_map, and the boundary λ1 = 0 between regular and "
+        "A and B together), with nld.analysis.chaos_map.chaos_map, and the boundary λ1 = 0 between regular and "
         "chaotic motion.",
         f"- slider-crank: {len(sc['values_x'])} x {len(sc['values_y'])} cells; per cell "
         f"{sc['transient_revs']} transient revolutions, {sc['revs']} section points, λ1 over "
@@ -313,9 +313,9 @@ def _discussion(summ, maps):
 
 def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     from nld import __version__
-    from nld.io import save_table
-    from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, source_date_epoch, study_workers
+    from nld.output.io import save_table
+    from nld.output.provenance import git_hash
+    from nld.output.report import Report, save_study_data, source_date_epoch, study_workers
 
     start = time.perf_counter()
     st_all = QUICK if quick else FULL
@@ -342,7 +342,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     save_table(bnd, out_dir / f"{STEM}_boundary.csv", prov)
 
     settings = {"Mode": mode_label, "Maps": "slider_crank_olyaei (B), excavator (A and B together)",
-                "Method": ("nld.chaos_map.chaos_map: stroboscopic section + λ1 (tangent dynamics with "
+                "Method": ("nld.analysis.chaos_map.chaos_map: stroboscopic section + λ1 (tangent dynamics with "
                            "saltation) + 0-1 test"),
                 "Workers": workers,
                 "Compute wall time": ("not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else

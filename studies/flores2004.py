@@ -6,7 +6,7 @@
 What it repeats: the slider-crank with a revolute clearance between connecting rod and slider, crank
 at 5000 rpm, radial clearance 0.5 mm, Lankarani-Nikravesh contact, no friction. Over two crank
 revolutions after a transient it plots, against the ideal-joint mechanism
-(:func:`nld.ideal.ideal_solution` at the same output times):
+(:func:`nld.model.ideal.ideal_solution` at the same output times):
 
 * the slider acceleration and the crank (driving) moment,
 * the journal centre orbit (B.ex, B.ey) inside the clearance circle, coloured by the contact mode
@@ -101,9 +101,9 @@ def run_case(scene, clearance: float, settings: dict, period: float):
     """Transient, then the statistics run in chunks (the first plotted_revs are the plotted window).
 
     Returns (plotted table with 'mode' and 'crank_deg', per-revolution peaks, run record)."""
-    from nld.kernel import compile_scene
-    from nld.scene import apply_overrides, scene_from_dict, scene_to_dict
-    from nld.simulate import simulate
+    from nld.kernel.compile import compile_scene
+    from nld.model.scene import apply_overrides, scene_from_dict, scene_to_dict
+    from nld.run.simulate import simulate
     raw = scene_to_dict(scene)
     overrides = [f"joints.B.clearance={clearance!r}"]
     apply_overrides(raw, overrides)
@@ -167,9 +167,9 @@ def run_case(scene, clearance: float, settings: dict, period: float):
 
 
 def run_all(settings: dict):
-    from nld.ideal import ideal_solution
-    from nld.scene import load_scene
-    from nld.simulate import crank_period
+    from nld.model.ideal import ideal_solution
+    from nld.model.scene import load_scene
+    from nld.run.simulate import crank_period
     base = load_scene(SCENE)
     period = crank_period(base)
     tables, per_rev, runs = {}, [], {}
@@ -184,7 +184,7 @@ def run_all(settings: dict):
     ideal.insert(1, "crank_deg", np.degrees(ideal["driver.angle"].to_numpy()
                                             - 2 * math.pi * settings["transient_revs"]))
     ideal["B.F"] = np.hypot(ideal["B.Fx"], ideal["B.Fy"])
-    runs["ideal"] = dict(overrides=["every joint closed"], success=True, message="nld.ideal.ideal_solution",
+    runs["ideal"] = dict(overrides=["every joint closed"], success=True, message="nld.model.ideal.ideal_solution",
                          wall_s=time.perf_counter() - t0)
     return base, period, tables, ideal, pd.concat(per_rev, ignore_index=True), runs
 
@@ -420,7 +420,7 @@ def _text_intro(mode_label, settings, period, scene):
         f"{settings['samples_per_rev']} output samples per revolution ({period / settings['samples_per_rev'] * 1e6:.2f} µs; "
         "an impact lasts 40-100 µs). All peaks are maxima over these samples.",
         "Cases: the benchmark clearance 0.5 mm, and 0.25 mm and 0.1 mm for the clearance-size study "
-        "(--set joints.B.clearance=...); the ideal-joint twin (nld.ideal.ideal_solution, every joint closed) "
+        "(--set joints.B.clearance=...); the ideal-joint twin (nld.model.ideal.ideal_solution, every joint closed) "
         "at the same output times. Crank angle on the plots: 0 deg at the start of the plotted window "
         "(the crank is then at its initial angle 0, the top dead centre side).",
         f"Contact modes (Flores' terminology): free flight (no contact), impact (a contact interval shorter "
@@ -519,7 +519,7 @@ def _run_table(runs):
 
 
 def _sde() -> bool:
-    from nld.report import source_date_epoch
+    from nld.output.report import source_date_epoch
     return source_date_epoch() is not None
 
 
@@ -534,10 +534,10 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     (tests): 1 + 1, statistics over 3, rtol 1e-7, 1440 samples per revolution.
     """
     from nld import __version__
-    from nld.io import save_table
-    from nld.provenance import git_hash
-    from nld.report import Report, save_study_data
-    from nld.scene import scene_to_dict
+    from nld.output.io import save_table
+    from nld.output.provenance import git_hash
+    from nld.output.report import Report, save_study_data
+    from nld.model.scene import scene_to_dict
 
     start = time.perf_counter()
     settings = dict(SMOKE if smoke else QUICK if quick else FULL)
@@ -556,8 +556,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
 
     prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
             "scene": base.name, "scene_parameters": scene_to_dict(base),
-            "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.simulate)",
-            "reference": "ideal joints: nld.ideal.ideal_solution at the same output times",
+            "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
+            "reference": "ideal joints: nld.model.ideal.ideal_solution at the same output times",
             "source": CITATION, **settings, "clearances_m": CLEARANCES,
             "impact_max_duration_s": IMPACT_MAX_DURATION, "period_s": period,
             "plotted_window_s": [float(tables[case_name(BENCHMARK_CLEARANCE)]["t"].iloc[0]),
@@ -641,7 +641,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
                   float_format=lambda v: f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}",
                   notes=["Integrator statistics of each case over the whole run (transient, plotted window and "
-                         "statistics run; nld.simulate, dopri5) and wall time (left out when SOURCE_DATE_EPOCH "
+                         "statistics run; nld.run.simulate, dopri5) and wall time (left out when SOURCE_DATE_EPOCH "
                          "is set, for a reproducible PDF). Provenance (versions, git hash, every scene parameter, "
                          "the overrides) is in the parquet metadata and its .json sidecar."])
     return pdf_path

@@ -5,8 +5,8 @@
 
 Scene ``slider_crank_olyaei``: the Flores slider-crank (0.5 mm radial clearance at the rod-slider joint
 B, Lankarani-Nikravesh contact, restitution 0.9, 5000 rpm) with Ambrosio's modified Coulomb friction
-(mu = 0.1). With :func:`nld.bifurcation.sweep` (stroboscopic section once per crank revolution, period
-detection, and the largest Lyapunov exponent by :func:`nld.lyapunov.lyapunov_tangent` (tangent
+(mu = 0.1). With :func:`nld.analysis.bifurcation.sweep` (stroboscopic section once per crank revolution, period
+detection, and the largest Lyapunov exponent by :func:`nld.analysis.lyapunov.lyapunov_tangent` (tangent
 dynamics with saltation matrices at every contact event) from the end of each section):
 
 * bifurcation diagram and exponent against the crank speed (driver.speed, clearance 0.5 mm);
@@ -20,7 +20,7 @@ dynamics with saltation matrices at every contact event) from the end of each se
 * where chaos sets in: the chaotic windows of each sweep and the interpolated lambda = 0 crossings.
 
 Outputs in ``out_dir``: ``olyaei2012.pdf``; ``olyaei2012.parquet`` (the sweeps stacked, ``case`` =
-sweep name first, the columns of :func:`nld.bifurcation.load_sweep` and ``B.ex/c``, ``B.ey/c``: the
+sweep name first, the columns of :func:`nld.analysis.bifurcation.load_sweep` and ``B.ex/c``, ``B.ey/c``: the
 eccentricity over the point's clearance, as plotted); ``olyaei2012_points.csv`` (one row
 per sweep point: value, lambda per revolution +- uncertainty, verdict, detected period);
 ``olyaei2012_sections.parquet`` (the two showcase sections, ``case`` = regular / chaotic, with
@@ -63,7 +63,7 @@ SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM,
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
 
 OBS = ["B.ex", "B.ey"]
-# period of a section: successive points agree to PERIOD_TOL_C of the clearance (nld.poincare.period_of
+# period of a section: successive points agree to PERIOD_TOL_C of the clearance (nld.analysis.poincare.period_of
 # with scale = c); the integration and friction-regularisation floor is about 1e-5 c here
 PERIOD_TOL_C = 1e-4
 # tolerance check of the exponent: (estimator, rtol) at which lambda is recomputed; the two-trajectory
@@ -106,8 +106,8 @@ EC_LIM = 1.15
 
 
 def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes (nld.report.ec_limit with this study's EC_LIM)."""
-    from nld.report import ec_limit
+    """A common limit of the e/c axes (nld.output.report.ec_limit with this study's EC_LIM)."""
+    from nld.output.report import ec_limit
     return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
@@ -141,7 +141,7 @@ def with_ec(df: pd.DataFrame, c) -> pd.DataFrame:
 def estimator_line(settings: dict, period: float | None) -> str:
     """Estimator, tolerance, averaging span (from an exponent's own settings) and what the
     uncertainty is."""
-    from nld.report import estimator_text
+    from nld.output.report import estimator_text
     import re
     st = {k: v for k, v in dict(settings or {}).items() if k != "scales"}
     # in revolutions only: the crank period differs between the points compared
@@ -164,7 +164,7 @@ def sweep_estimator_line(df: pd.DataFrame) -> str:
 
 def run_sweeps(st: dict):
     """The three sweeps; returns ({name: load_sweep table}, {name: wall s})."""
-    from nld.bifurcation import sweep
+    from nld.analysis.bifurcation import sweep
     out, walls = {}, {}
     for name, (param, *_rest) in SWEEPS.items():
         t0 = time.perf_counter()
@@ -185,7 +185,7 @@ def sweep_points(name: str, df: pd.DataFrame) -> pd.DataFrame:
     lam = first["lyapunov"].to_numpy(float)
     unc = first["lyapunov_uncertainty"].to_numpy(float)
     per, uper = lam * period, unc * period
-    from nld.poincare import period_of
+    from nld.analysis.poincare import period_of
     pc, npts = [], []
     for i, val in zip(first["index"], v):
         g = df[(df["index"] == i) & (df["status"] == "ok")]
@@ -277,9 +277,9 @@ def pick_states(points: dict):
 
 def run_state(pt: dict, st: dict):
     """Longer stroboscopic section of one state and its exponent at the tighter tolerance."""
-    from nld.lyapunov import lyapunov_tangent
-    from nld.poincare import period_of, stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.analysis.poincare import period_of, stroboscopic
+    from nld.systems.core import SceneSystem
     ov = _overrides(pt["sweep"], pt["value"])
     t0 = time.perf_counter()
     sec = stroboscopic(SCENE, transient_revs=st["case_transient"], revs=st["case_revs"],
@@ -302,9 +302,9 @@ def run_state(pt: dict, st: dict):
 def tolerance_check(points: dict, st: dict) -> pd.DataFrame:
     """lambda of the largest-exponent point of each sweep recomputed at the TOL_CHECK tolerances, from
     the end of a fresh section (same transient and section length as the sweep)."""
-    from nld.lyapunov import largest_exponent
-    from nld.poincare import stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import largest_exponent
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
     rows, est_lines = [], {}
     for name, pts in points.items():
         ok = pts[pts["status"] == "ok"]
@@ -413,7 +413,7 @@ def _state_title(k, s):
 
 
 def _fig_states(rep, states):
-    from nld.plots import exponent_convergence
+    from nld.output.plots import exponent_convergence
     names = [k for k in ("regular", "chaotic") if states.get(k)]
     if not names:
         return False
@@ -475,7 +475,7 @@ def _fig_states(rep, states):
 
 
 def _fig_state_other(rep, states):
-    from nld.plots import poincare_scatter
+    from nld.output.plots import poincare_scatter
     names = [k for k in ("regular", "chaotic") if states.get(k)]
     if not names:
         return False
@@ -556,7 +556,7 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         "control part of the paper is not repeated.",
         f"What is repeated ({mode_label}): scene 'slider_crank_olyaei' = the Flores benchmark (crank 0.05 m, "
         "rod 0.12 m, 0.5 mm radial clearance at B, journal 9.5 mm, restitution 0.9, 5000 rpm) with Ambrosio's "
-        "modified Coulomb friction μ = 0.1 (v0 = 1e-4, v1 = 1e-2 m/s). Four sweeps with nld.bifurcation.sweep: "
+        "modified Coulomb friction μ = 0.1 (v0 = 1e-4, v1 = 1e-2 m/s). Four sweeps with nld.analysis.bifurcation.sweep: "
         f"the crank speed ({len(sp)} values, {_fmt_value('speed', sp['value'].min())} to "
         f"{_fmt_value('speed', sp['value'].max())}), the clearance ({len(cl)} values, "
         f"{_fmt_value('clearance', cl['value'].min())} to {_fmt_value('clearance', cl['value'].max())}, "
@@ -564,7 +564,7 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         f"({len(sl)} values; the friction sweep puts this value on the chaotic side). Each point starts from the assembled "
         f"ideal state, runs {st['transient_revs']} transient revolutions and {st['revs']} section points at "
         f"rtol {st['rtol']:g} (error control scaled by the clearance), then λ1 from the tangent dynamics "
-        f"(nld.lyapunov.lyapunov_tangent: the variational equations integrated with the trajectory, "
+        f"(nld.analysis.lyapunov.lyapunov_tangent: the variational equations integrated with the trajectory, "
         f"each contact onset and separation mapped by its saltation matrix, Gram-Schmidt 8 times a "
         f"revolution, 2 revolutions of alignment) over {st['lyap_revs']} revolutions at rtol "
         f"{st['lyap_rtol']:g}. Verdict: chaotic if λ1 − uncertainty > 0, "
@@ -747,7 +747,7 @@ def _run_table(walls, states, sweeps):
 
 
 def _sde() -> bool:
-    from nld.report import source_date_epoch
+    from nld.output.report import source_date_epoch
     return source_date_epoch() is not None
 
 
@@ -763,10 +763,10 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     quick: 3 + 2 + 2 + 2 points, 10 + 12 revolutions at rtol 1e-7 (λ1 at 1e-10). smoke: fewer still.
     """
     from nld import __version__
-    from nld.io import save_table
-    from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, study_start, study_workers
-    from nld.scene import load_scene, scene_to_dict
+    from nld.output.io import save_table
+    from nld.output.provenance import git_hash
+    from nld.output.report import Report, save_study_data, study_start, study_workers
+    from nld.model.scene import load_scene, scene_to_dict
 
     start = time.perf_counter()
     st = dict(SMOKE if smoke else QUICK if quick else FULL)
@@ -819,7 +819,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                  for k, s in states.items()}
     prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
             "scene": base.name, "scene_parameters": scene_to_dict(base),
-            "integrator": "dopri5 (adaptive Dormand-Prince 5(4)), nld.bifurcation.sweep / nld.lyapunov",
+            "integrator": "dopri5 (adaptive Dormand-Prince 5(4)), nld.analysis.bifurcation.sweep / nld.analysis.lyapunov",
             "source": CITATION, **{k: v for k, v in st.items() if k not in SETTINGS_KEY.values()},
             "speeds_rad_s": [float(v) for v in st["speeds"]],
             "speeds_low_mu_rad_s": [float(v) for v in st["speeds_low_mu"]],
@@ -915,7 +915,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         _fig_states(rep, states)
         _fig_state_other(rep, states)
         rep.table("Run statistics", _run_table(walls, states, sweeps), col_units={"wall time": "s"},
-                  notes=["Wall time of each sweep (nld.bifurcation.sweep, "
+                  notes=["Wall time of each sweep (nld.analysis.bifurcation.sweep, "
                          f"{st['workers']} worker process(es)) and of each showcase state on this machine "
                          "(left out when SOURCE_DATE_EPOCH is set). Provenance (versions, git hash, every "
                          "scene parameter, the settings) is in the parquet metadata and its .json sidecar."])

@@ -6,16 +6,16 @@ Effect of the clearance size and of the friction coefficient on the regularity o
 
 * six cases (three clearances at the scene's friction mu = 0.01; three friction coefficients at the
   scene's clearance 0.25 mm): stroboscopic Poincare sections of the journal eccentricity (B.ex, B.ey)
-  (:func:`nld.poincare.stroboscopic`), the largest Lyapunov exponent from the end of the section
-  (:func:`nld.lyapunov.lyapunov_tangent`, tangent dynamics with saltation at every contact event), a sampled run continued from there for the contact-force
-  spectrum (:func:`nld.spectrum.table_spectrum`) and the force peaks;
-* two bifurcation sweeps with the exponent at every point (:func:`nld.bifurcation.sweep`): in the
+  (:func:`nld.analysis.poincare.stroboscopic`), the largest Lyapunov exponent from the end of the section
+  (:func:`nld.analysis.lyapunov.lyapunov_tangent`, tangent dynamics with saltation at every contact event), a sampled run continued from there for the contact-force
+  spectrum (:func:`nld.analysis.spectrum.table_spectrum`) and the force peaks;
+* two bifurcation sweeps with the exponent at every point (:func:`nld.analysis.bifurcation.sweep`): in the
   clearance (mu = 0.01) and in the friction coefficient (c = 0.25 mm).
 
 Outputs in ``out_dir``: ``rhee1996.pdf``; ``rhee1996.parquet`` (the sampled runs of the six cases,
 ``case`` first); ``rhee1996_sections.parquet`` (section points per case, with ``B.ex/c``, ``B.ey/c``:
 the eccentricity over the case's clearance, as plotted); ``rhee1996_sweeps.parquet`` (both sweeps,
-``sweep`` first, as ``nld.bifurcation.load_sweep``, with ``B.ex/c``, ``B.ey/c``); ``rhee1996_spectra.parquet``;
+``sweep`` first, as ``nld.analysis.bifurcation.load_sweep``, with ``B.ex/c``, ``B.ey/c``); ``rhee1996_spectra.parquet``;
 ``rhee1996_summary.csv`` (the per-case table printed in the report: its max_Fn is the maximum of
 ``B.Fn`` over that case's rows of ``rhee1996.parquet``, its lambda that of the case's exponent).
 
@@ -68,8 +68,8 @@ EC_LIM = 1.15
 
 
 def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes (nld.report.ec_limit with this study's EC_LIM)."""
-    from nld.report import ec_limit
+    """A common limit of the e/c axes (nld.output.report.ec_limit with this study's EC_LIM)."""
+    from nld.output.report import ec_limit
     return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
                   "uncertain": "0.5"}
@@ -92,7 +92,7 @@ def verdict(lam: float, unc: float, n_points: int) -> str:
 def estimator_line(settings: dict, period: float | None) -> str:
     """Estimator, tolerance, averaging span (from an exponent's own settings) and what the
     uncertainty is."""
-    from nld.report import estimator_text
+    from nld.output.report import estimator_text
     st = {k: v for k, v in dict(settings or {}).items() if k != "scales"}
     return estimator_text(st, None, period) + "; " + UNCERTAINTY_TEXT
 
@@ -113,11 +113,11 @@ def sweep_estimator_settings(df: pd.DataFrame, period: float) -> dict:
 
 def run_case(name, st):
     """Section, exponent and the continued sampled run of one case."""
-    from nld.lyapunov import lyapunov_tangent
-    from nld.poincare import period_of, stroboscopic
-    from nld.simulate import simulate
-    from nld.spectrum import peaks, table_spectrum
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.analysis.poincare import period_of, stroboscopic
+    from nld.run.simulate import simulate
+    from nld.analysis.spectrum import peaks, table_spectrum
+    from nld.systems.core import SceneSystem
     _, ov, c, mu = CASES[name]
     t0 = time.perf_counter()
     sec = stroboscopic(SCENE, transient_revs=st["transient_revs"], revs=st["section_revs"],
@@ -150,7 +150,7 @@ def run_case(name, st):
 
 
 def run_sweeps(st):
-    from nld.bifurcation import sweep
+    from nld.analysis.bifurcation import sweep
     kw = dict(transient_revs=st["sweep_transient"], revs=st["sweep_revs"], observables=["B.ex", "B.ey"],
               rtol=st["rtol"], lyapunov=True, lyapunov_revs=st["sweep_lyap"], lyapunov_rtol=st["rtol"],
               workers=st["workers"])
@@ -167,7 +167,7 @@ def sweep_points(df: pd.DataFrame, period: float, clearance=None) -> pd.DataFram
     clearance: None (the swept value is the clearance) or the fixed clearance (m); the section period
     is recomputed with points repeating to PERIOD_TOL x clearance (the sweep's own ``period`` column
     uses the points' range as the scale)."""
-    from nld.poincare import period_of
+    from nld.analysis.poincare import period_of
     first = df.drop_duplicates(["direction", "index"]).sort_values("index")
     periods, npts = [], []
     for _, r in first.iterrows():
@@ -295,7 +295,7 @@ def _fig_sweep(rep, sw, pts, xlabel, title, param_scale, log, clearance, period,
                             "chaotic: λ1 − uncertainty > 0 over at least "
                             f"{MIN_SECTION_POINTS} section points ('λ1 > 0, short' below that), regular: "
                             "λ1 + uncertainty < 0; 'Pn' marks a section that repeats with period n "
-                            "(nld.poincare.period_of: points repeating to 1e-6 of the clearance). "
+                            "(nld.analysis.poincare.period_of: points repeating to 1e-6 of the clearance). "
                             f"λ1: {est}.")
 
 
@@ -306,7 +306,7 @@ def _spectra_max_order(res) -> float:
 
 
 def _fig_spectra(rep, res):
-    from nld.plots import spectrum_plot
+    from nld.output.plots import spectrum_plot
     max_order = _spectra_max_order(res)
     with rep.style():
         fig, axes = rep.subplots(2, 3, squeeze=False, sharex=True, sharey=True,
@@ -328,7 +328,7 @@ def _fig_spectra(rep, res):
 
 
 def _fig_convergence(rep, res, period):
-    from nld.plots import exponent_convergence
+    from nld.output.plots import exponent_convergence
     lo, hi = [0.0], [0.0]
     for name in CASES:              # a common y-range that ignores the first tenth of each run
         ly = res[name]["lyap"]
@@ -497,11 +497,11 @@ def _discussion(summary, pts_c, pts_f):
 
 def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     from nld import __version__
-    from nld.io import save_table
-    from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, study_start, source_date_epoch, study_workers
-    from nld.scene import load_scene, scene_to_dict
-    from nld.simulate import crank_period
+    from nld.output.io import save_table
+    from nld.output.provenance import git_hash
+    from nld.output.report import Report, save_study_data, study_start, source_date_epoch, study_workers
+    from nld.model.scene import load_scene, scene_to_dict
+    from nld.run.simulate import crank_period
 
     start = time.perf_counter()
     st = dict(QUICK if quick else FULL)

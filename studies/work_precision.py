@@ -27,7 +27,7 @@ is chaotic, so errors are only meaningful over short windows or as statistics:
 
 The timed integration is the one ``simulate`` performs (the kernel module's ``solve`` or
 ``nld.integrators.solve_method`` with simulate's arguments: absolute tolerances
-``nld.simulate.tolerances``, hmax = period/20, contact events on, the same event-log length),
+``nld.run.simulate.tolerances``, hmax = period/20, contact events on, the same event-log length),
 without the per-row observation and the table that simulate builds afterwards (the same work for
 every method); the study checks once per case that this gives simulate's answer. CPU time of the
 process (``time.process_time``), minimum over repeats.
@@ -108,9 +108,9 @@ class Setup:
     """A case compiled: scene, kernel, initial state, tolerance scales, grids."""
 
     def __init__(self, name: str, spec: dict, settings: dict):
-        from nld.kernel import compile_scene
-        from nld.scene import load_scene
-        from nld.simulate import crank_period, initial_state
+        from nld.kernel.compile import compile_scene
+        from nld.model.scene import load_scene
+        from nld.run.simulate import crank_period, initial_state
         self.name, self.spec = name, spec
         self.scene = load_scene(spec["scene"], list(spec["overrides"]) or None)
         self.kern = compile_scene(self.scene)
@@ -141,7 +141,7 @@ class Setup:
 
     def _solve(self, method: str, rtol: float, t_eval, max_steps: int):
         from nld.integrators import solve_method
-        from nld.simulate import tolerances
+        from nld.run.simulate import tolerances
         atol = tolerances(self.kern, self.q, rtol)
         t_end = float(t_eval[-1])
         n_revs = t_end / self.period
@@ -286,7 +286,7 @@ def pick_reference(method: str, refs: dict) -> str | None:
 
 def run_case(name: str, settings: dict, log=print) -> tuple[pd.DataFrame, dict]:
     """Every (method, rtol) of the case: DataFrame of runs, and case info."""
-    from nld.simulate import simulate
+    from nld.run.simulate import simulate
     spec = CASES[name]
     setup = Setup(name, spec, settings)
     log(f"case {name}: period {setup.period * 1e3:.3f} ms, window {spec['window_revs']} rev, "
@@ -457,8 +457,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
     """Run the study; ``cases``: a subset of CASES; ``cache_dir``: keep each case's runs there (pickle,
     keyed by case and mode) and reuse them on the next call (for resuming a long full run)."""
     from nld import __version__
-    from nld.provenance import git_hash
-    from nld.report import Report, save_study_data
+    from nld.output.provenance import git_hash
+    from nld.output.report import Report, save_study_data
 
     settings = dict(QUICK if quick else FULL)
     if cases is not None:

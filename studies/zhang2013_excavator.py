@@ -10,11 +10,11 @@ Cases (crank at 15.6 rad/s, Coulomb friction as hybrid stick/slip modes, damped 
 * ``r=0.01mm`` and ``r=0.5mm``: r1 = r2, friction 0.01 at both joints (paper Figs 5-7);
 * contact forces at A and B and the crank (load) torque (Fig. 8), rod angular velocity against
   angular acceleration (Fig. 9);
-* ``ideal``: the ideal-joint twin (:func:`nld.ideal.ideal_solution`) at the same output times.
+* ``ideal``: the ideal-joint twin (:func:`nld.model.ideal.ideal_solution`) at the same output times.
 
 Each run starts from the assembled ideal state and is integrated over ``transient_revs`` crank
 revolutions that are discarded, then ``steady_revs`` whose per-revolution maxima are located from the
-dense output (nld.extrema) and summarised as mean +- standard error; the first ``plot_revs`` are
+dense output (nld.analysis.extrema) and summarised as mean +- standard error; the first ``plot_revs`` are
 plotted. Outputs, in ``out_dir``: ``zhang2013_excavator.pdf`` (the report),
 ``zhang2013_excavator.parquet`` (the stored samples of every case, columns ``case`` and ``steady``
 first, provenance in the metadata and the ``.json`` sidecar), ``zhang2013_excavator_maxima.csv``
@@ -41,7 +41,7 @@ CITATION = ("Zhang Su-xia, Liu Xi-jun, Xu Long-xu, Hou Shu-jun (2013), \"Nonline
 # run settings: full and quick mode (and a smoke mode for the test suite). Each case runs
 # transient_revs + steady_revs crank revolutions; the statistics (mean +- standard error of the
 # per-revolution maxima) use all steady_revs, the figures show the first plot_revs of them.
-# samples_per_rev: detection samples per revolution (nld.extrema); every keep_every-th is stored and
+# samples_per_rev: detection samples per revolution (nld.analysis.extrema); every keep_every-th is stored and
 # plotted; the refine_top largest local maxima of each revolution are refined from the dense output
 # until the peak changes by less than peak_rtol. check_revs: revolutions run again with
 # check_factor x the detection samples (the same trajectory: the steps do not depend on the output
@@ -156,10 +156,10 @@ def _parallel(func_name: str, items: list, workers: int) -> list:
 
 
 def run_case(name: str, settings: dict, scene_name: str = SCENE) -> dict:
-    """One case: per-revolution maxima (nld.extrema.revolution_maxima) over the steady revolutions,
+    """One case: per-revolution maxima (nld.analysis.extrema.revolution_maxima) over the steady revolutions,
     the kept samples of the first transient + plot revolutions, and the sampling check. Returns a
     picklable dict (table, maxima, check, run record)."""
-    from nld.extrema import revolution_maxima
+    from nld.analysis.extrema import revolution_maxima
     overrides = CASES[name][2]
     cols = [c for c, _, _ in QUANTITIES.values()]
     absolute = {c: ab for c, ab, _ in QUANTITIES.values()}
@@ -189,10 +189,10 @@ def run_cases(settings: dict, scene_name: str = SCENE, workers: int = 1):
     """Every case (run_case) and the ideal twin at the kept output times. Returns (base scene,
     tables, ideal, runs, times, t_steady, maxima, check): maxima and check are tables of all
     cases (column ``case`` first)."""
-    from nld.ideal import ideal_solution
+    from nld.model.ideal import ideal_solution
     from nld.progress import stage
-    from nld.scene import load_scene
-    from nld.simulate import crank_period
+    from nld.model.scene import load_scene
+    from nld.run.simulate import crank_period
 
     base = load_scene(scene_name)
     period = crank_period(base)
@@ -217,7 +217,7 @@ def run_cases(settings: dict, scene_name: str = SCENE, workers: int = 1):
     t0 = time.perf_counter()
     ideal = ideal_solution(base, times)
     runs["ideal"] = dict(overrides=[], status=0, success=True, wall_s=time.perf_counter() - t0,
-                         message="ideal joints (nld.ideal.ideal_solution) at the same output times")
+                         message="ideal joints (nld.model.ideal.ideal_solution) at the same output times")
     maxima = pd.concat(maxima, ignore_index=True)
     check = pd.concat(checks, ignore_index=True) if checks else None
     return base, tables, ideal, runs, times, t_steady, maxima, check
@@ -307,9 +307,9 @@ def _sweep_overrides(sweep: str, value: float) -> list[str]:
 def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCENE):
     """One point of a sweep: stroboscopic section of the journal eccentricities at A and B, then
     the largest Lyapunov exponent from the end of the section. Returns (section table, row)."""
-    from nld.lyapunov import largest_exponent
-    from nld.poincare import stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import largest_exponent
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
     ov = _sweep_overrides(sweep, v)
     t0 = time.perf_counter()
     lam = unc = per = uper = float("nan")
@@ -381,7 +381,7 @@ def verdict(status: str, per: float, uper: float, n_points: int) -> str:
 def estimator_line(pts: pd.DataFrame, period: float | None) -> str:
     """The estimator, tolerance and averaging span of the exponents in ``pts``, from the results'
     own settings (so the text follows the estimator that ran)."""
-    from nld.report import estimator_text
+    from nld.output.report import estimator_text
     ok = pts[pts["status"] == "ok"]
     if not len(ok):
         return "no exponent computed"
@@ -406,7 +406,7 @@ def _json_default(o):
 
 def force_spectra(tables: dict, ts: float) -> dict:
     """Spectra (single Hann periodogram over the whole plotted revolutions) of A.Fn and B.Fn."""
-    from nld.spectrum import peaks, table_spectrum
+    from nld.analysis.spectrum import peaks, table_spectrum
     out = {}
     for name, df in tables.items():
         for j in ("A", "B"):
@@ -681,7 +681,7 @@ def _fig_maxima(rep, maxima, summary, settings):
 
 
 def _fig_spectra(rep, spectra):
-    from nld.plots import spectrum_plot
+    from nld.output.plots import spectrum_plot
     names = list(CASES)
     top = [float(pk["order"].max()) for sp, pk in spectra.values() if pk is not None and len(pk)]
     max_order = max([100.0] + [1.1 * o for o in top])         # every listed peak inside the axes
@@ -715,7 +715,7 @@ def _analysis_text(pts, spectra, an, mode, period=None):
     lines = [
         f"Method: separate runs from the assembled ideal state at rtol {an['rtol']:g}: {an['transient_revs']} "
         f"transient revolution(s), a stroboscopic section of {an['section_revs']} point(s) of the journal "
-        f"eccentricities at A and B (nld.poincare.stroboscopic), then the largest Lyapunov exponent "
+        f"eccentricities at A and B (nld.analysis.poincare.stroboscopic), then the largest Lyapunov exponent "
         f"from the end of the section ({estimator_line(pts, period)}). A point is called chaotic only "
         f"when λ1 - uncertainty > 0 over a section of at least {MIN_SECTION_POINTS} points; a positive "
         f"exponent over a shorter section reads 'λ1 > 0, short'. Clearance sweep r1 = r2 in "
@@ -873,7 +873,7 @@ def _text_intro(mode_label, settings, summary, runs, period):
         f"{settings['refine_top']} largest sampled local maxima of each quantity are re-integrated from "
         "the stored state over the window between their neighbouring samples, with the integrator's "
         "dense output, zooming on the largest value until it changes by less than "
-        f"{settings['peak_rtol']:g} (nld.extrema). A quantity's value in the tables is the mean of these "
+        f"{settings['peak_rtol']:g} (nld.analysis.extrema). A quantity's value in the tables is the mean of these "
         f"per-revolution maxima over the {settings['steady_revs']:g} steady revolutions ± its standard "
         "error.",
         "Cases:",
@@ -884,7 +884,7 @@ def _text_intro(mode_label, settings, summary, runs, period):
                      f"velocity {_fmt(paper, 'rad/s')}, ours {_fmt(float(om.loc[name, 'nld']))} ± "
                      f"{_fmt(float(om.loc[name, '± se']), 'rad/s')} (mean of {int(om.loc[name, 'revs'])} "
                      f"per-revolution maxima); {r['message']}")
-    lines.append(f"- ideal: every joint closed (nld.ideal), evaluated at the stored output times; max rod "
+    lines.append(f"- ideal: every joint closed (nld.model.ideal), evaluated at the stored output times; max rod "
                  f"angular velocity {_fmt(ideal_w, 'rad/s')}.")
     failed = [n for n in CASES if not runs[n]["success"]]
     if failed:
@@ -1069,14 +1069,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
 
     Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
-    NLD_WORKERS (nld.report.study_workers).
+    NLD_WORKERS (nld.output.report.study_workers).
     """
     from nld import __version__
-    from nld.io import save_table
-    from nld.provenance import git_hash
-    from nld.report import Report, save_study_data, study_workers
-    from nld.scene import scene_to_dict
-    from nld.simulate import crank_period
+    from nld.output.io import save_table
+    from nld.output.provenance import git_hash
+    from nld.output.report import Report, save_study_data, study_workers
+    from nld.model.scene import scene_to_dict
+    from nld.run.simulate import crank_period
     from nld.progress import stage
 
     start = time.perf_counter()
@@ -1109,8 +1109,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     stage("zhang2013", "writing the data and the report")
     prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
             "scene": base.name, "scene_parameters": scene_to_dict(base),
-            "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.simulate)",
-            "reference": "ideal joints: nld.ideal.ideal_solution at the same output times",
+            "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
+            "reference": "ideal joints: nld.model.ideal.ideal_solution at the same output times",
             "paper": CITATION, **settings, "t_steady_from": ts, "t_end": float(times[-1]),
             "workers": workers, "cases": runs, "summary": summary.to_dict(orient="records"),
             "peak_convergence": conv.to_dict(orient="records"),
@@ -1149,7 +1149,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         "Samples per revolution": (f"{settings['samples_per_rev']} to detect peaks, every "
                                    f"{settings['keep_every']}th stored and plotted"),
         "Peak location": (f"the {settings['refine_top']} largest sampled local maxima per revolution "
-                          f"refined from the dense output to {settings['peak_rtol']:g} (nld.extrema)"),
+                          f"refined from the dense output to {settings['peak_rtol']:g} (nld.analysis.extrema)"),
         "Worker processes": workers,
         "Crank speed": f"{base.driver.speed:g} rad/s (constant)",
         "Contact / friction law": f"{base.joints['A'].contact.law} / {base.joints['A'].friction.law}",
@@ -1180,7 +1180,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         rep.table("Peak location: sampled against located maxima", conv,
                   notes=[f"Mean over the {settings['steady_revs']} steady revolutions of the per-revolution "
                          "maxima read off the stored samples, off the detection samples, and located "
-                         f"(nld.extrema: the {settings['refine_top']} largest sampled local maxima of each "
+                         f"(nld.analysis.extrema: the {settings['refine_top']} largest sampled local maxima of each "
                          "revolution re-integrated from the stored state in shrinking windows of the dense "
                          f"output until the peak changes by less than {settings['peak_rtol']:g}). Last "
                          f"column: the first {settings.get('check_revs', 0)} steady revolution(s) run again "
@@ -1223,7 +1223,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         _fig_bifurcation(rep, "friction", secs, pts, an, period)
         _fig_spectra(rep, spectra)
         rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
-                  notes=["Integrator statistics of each case (nld.extrema.revolution_maxima: dopri5, one "
+                  notes=["Integrator statistics of each case (nld.analysis.extrema.revolution_maxima: dopri5, one "
                          "kernel call per revolution; 'refinement steps' are the steps of the peak windows) "
                          "and wall time on this "
                          "machine (left out when SOURCE_DATE_EPOCH is set, for a reproducible PDF). Provenance (versions, git hash, every scene parameter, the overrides of "
@@ -1232,7 +1232,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
 
 
 def _sde() -> bool:
-    from nld.report import source_date_epoch
+    from nld.output.report import source_date_epoch
     return source_date_epoch() is not None
 
 

@@ -45,7 +45,7 @@ class ReportRecorder:
 
     def __enter__(self):
         rec = self
-        from nld.report import Report
+        from nld.output.report import Report
         self._orig = (Report.figure, Report.table, Report._info_lines)
 
         def figure(rep, fig, caption=None):
@@ -71,7 +71,7 @@ class ReportRecorder:
         return self
 
     def __exit__(self, *exc):
-        from nld.report import Report
+        from nld.output.report import Report
         Report.figure, Report.table, Report._info_lines = self._orig
         return False
 

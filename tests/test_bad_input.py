@@ -123,7 +123,7 @@ def test_cli_no_driver_with_t_end_runs(files, capsys):
 
 
 def _sweep(**kw):
-    from nld.bifurcation import sweep
+    from nld.analysis.bifurcation import sweep
     args = dict(scene="slider_crank", param="driver.speed", values=[300.0], workers=1, revs=1,
                 transient_revs=0)
     args.update(kw)
@@ -131,7 +131,7 @@ def _sweep(**kw):
 
 
 def _chaos_map(**kw):
-    from nld.chaos_map import chaos_map
+    from nld.analysis.chaos_map import chaos_map
     args = dict(param_x="joints.B.clearance", values_x=[5e-4], param_y="joints.B.friction.mu",
                 values_y=[0.0], workers=1, revs=2, transient_revs=0)
     args.update(kw)
@@ -139,13 +139,13 @@ def _chaos_map(**kw):
 
 
 def _strobo(**kw):
-    from nld.poincare import stroboscopic
+    from nld.analysis.poincare import stroboscopic
     args = dict(transient_revs=0, revs=2)
     args.update(kw)
     return stroboscopic(args.pop("scene", "slider_crank"), **args)
 
 
-sim = nld.simulate
+sim = nld.run.simulate
 
 # (id, call, exception type, words in the message)
 API_CASES = [
@@ -220,7 +220,7 @@ def test_api_bad_input(call, exc, words):
 
 def test_plausible_ranges_leave_the_builtin_scenes_alone():
     """Every built-in scene passes the plausible-range checks (they bound absurd values only)."""
-    from nld.scene import builtin_scenes
+    from nld.model.scene import builtin_scenes
     for name in builtin_scenes():
         sc = nld.load_scene(name)
         for b in sc.bodies.values():

@@ -1,5 +1,5 @@
-"""Bifurcation sweeps (nld.bifurcation): local pool vs Dask, resume after an interruption, failed
-points, continuation up and down, provenance; the bifurcation diagram of nld.plots."""
+"""Bifurcation sweeps (nld.analysis.bifurcation): local pool vs Dask, resume after an interruption, failed
+points, continuation up and down, provenance; the bifurcation diagram of nld.output.plots."""
 import json
 from pathlib import Path
 
@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nld.bifurcation import load_sweep, parse_values, sweep
+from nld.analysis.bifurcation import load_sweep, parse_values, sweep
 from nld.errors import InputError
-from nld.poincare import stroboscopic
+from nld.analysis.poincare import stroboscopic
 from interrupt import run_and_kill
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -66,7 +66,7 @@ def test_killed_sweep_resumed_equals_uninterrupted(reference, tmp_path):
     table of the uninterrupted sweep; a finished point is not run again."""
     ref, _ = reference
     out = tmp_path / "killed"
-    code = ("from nld.bifurcation import sweep\n"
+    code = ("from nld.analysis.bifurcation import sweep\n"
             f"sweep('slider_crank', 'driver.speed', {VALUES!r}, workers=1, out={str(out)!r}, "
             f"**{KW!r})\n")
     done = run_and_kill(code, out)
@@ -146,9 +146,9 @@ def test_lyapunov_column(tmp_path):
     """lyapunov=True fills the exponent (1/s): the tangent estimator (default) from the end of the
     point's section, the same number as calling it directly; "benettin" on request; a bad
     estimator is refused."""
-    from nld.lyapunov import lyapunov_benettin, lyapunov_tangent
-    from nld.poincare import stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import lyapunov_benettin, lyapunov_tangent
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
     kw = dict(transient_revs=2, revs=3, workers=1, lyapunov=True, lyapunov_revs=3, rtol=1e-8)
     df = sweep("slider_crank", "driver.speed", [523.6], **kw)
     assert df.status.iloc[0] == "ok" and (df.lyapunov == df.lyapunov.iloc[0]).all()
@@ -166,7 +166,7 @@ def test_lyapunov_column(tmp_path):
 
 
 def test_bifurcation_diagram(reference):
-    from nld.plots import bifurcation_diagram
+    from nld.output.plots import bifurcation_diagram
     df, _ = reference
     fig = bifurcation_diagram(df, "B.ex", scale=1e3, unit="mm")
     ax = fig.axes[0]

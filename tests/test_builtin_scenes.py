@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from nld.ideal import ideal_solution, loop_closure_error
-from nld.scene import builtin_scenes, load_scene
-from nld.simulate import crank_period
+from nld.model.ideal import ideal_solution, loop_closure_error
+from nld.model.scene import builtin_scenes, load_scene
+from nld.run.simulate import crank_period
 
 SCENES = sorted(builtin_scenes())
 
@@ -30,7 +30,7 @@ def test_ideal_twin_closes_loop_and_balances_power(name):
 
 
 def test_slider_crank_runs_three_revolutions():
-    from nld.simulate import simulate
+    from nld.run.simulate import simulate
     r = simulate("slider_crank", revs=3)
     assert r.success, r.message
     assert np.isfinite(r.table.to_numpy()).all()

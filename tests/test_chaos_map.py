@@ -1,4 +1,4 @@
-"""Two-parameter chaos maps (nld.chaos_map): a 2 x 2 clearance x friction grid with a few
+"""Two-parameter chaos maps (nld.analysis.chaos_map): a 2 x 2 clearance x friction grid with a few
 revolutions per cell; a map killed after two cells and resumed on the local pool (2 workers) gives
 the uninterrupted table; the same map on Dask; failing cells; verdicts against the exponent signs;
 the heat map with its onset contour; the command line."""
@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nld.chaos_map import SUMMARY_COLUMNS, chaos_map, chaos_map_plot, load_chaos_map
+from nld.analysis.chaos_map import SUMMARY_COLUMNS, chaos_map, chaos_map_plot, load_chaos_map
 from nld.errors import InputError
 from interrupt import run_and_kill
 
@@ -63,7 +63,7 @@ def test_table_files_provenance_and_verdicts(reference):
 
 
 def test_verdict_with_a_tolerance_check():
-    from nld.chaos_map import _verdict
+    from nld.analysis.chaos_map import _verdict
     assert _verdict(2.0, 0.5, "ok") == "chaotic" and _verdict(-2.0, 0.5, "ok") == "regular"
     assert _verdict(0.2, 0.5, "ok") == "uncertain" and _verdict(2.0, 0.5, "failed") == "failed"
     assert _verdict(2.0, 0.5, "ok", 2.5, 0.5) == "chaotic"          # agree: |2 - 2.5| <= 3 x 1
@@ -92,9 +92,9 @@ def test_tolerance_check_on_the_former_integrator_exponent_cell(mu):
 def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
     """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + the tangent estimator
     (the default) from its end."""
-    from nld.lyapunov import lyapunov_tangent
-    from nld.poincare import stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
     df, out = reference
     ov = [f"{PX}=5e-4", f"{PY}=0.1"]
     sec = stroboscopic(SCENE, transient_revs=2, revs=4, observables=["B.ex"], rtol=1e-8,
@@ -117,10 +117,10 @@ def test_the_exponent_integrator_reaches_the_cell_and_the_resume_check(reference
     refused by the tangent default."""
     import shutil
 
-    from nld.bifurcation import PROVENANCE
-    from nld.lyapunov import lyapunov_benettin
-    from nld.poincare import stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.bifurcation import PROVENANCE
+    from nld.analysis.lyapunov import lyapunov_benettin
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
     df = chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, lyapunov_method="dop853",
                    estimator="benettin", **KW)
     ov = [f"{PX}=5e-4", f"{PY}=0.1"]
@@ -171,7 +171,7 @@ def test_killed_map_resumed_equals_uninterrupted(reference, tmp_path):
     finished cells are not run again."""
     ref, _ = reference
     out = tmp_path / "killed"
-    code = ("from nld.chaos_map import chaos_map\n"
+    code = ("from nld.analysis.chaos_map import chaos_map\n"
             f"chaos_map({SCENE!r}, {PX!r}, {VX!r}, {PY!r}, {VY!r}, workers=1, out={str(out)!r}, "
             f"**{KW!r})\n")
     done = run_and_kill(code, out)
@@ -270,7 +270,8 @@ def test_plot_draws_the_onset_contour(reference):
 
 def test_cli_chaos_map(monkeypatch, capsys, tmp_path):
     import argparse
-    from nld import chaos_map as cm, cli
+    from nld import cli
+    from nld.analysis import chaos_map as cm
     build = cli.build_parser
 
     def build_parser():

@@ -1,4 +1,4 @@
-"""Command line (nld.cli) and result tables on disk (nld.io).
+"""Command line (nld.cli) and result tables on disk (nld.output.io).
 
 Commands run in-process through ``main(argv)`` (capsys); one test runs ``python -m nld`` in a
 subprocess for the real exit status. Simulations are 0.2 crank revolutions of slider_crank.
@@ -21,7 +21,7 @@ import pytest
 import nld
 from nld.cli import main
 from nld.errors import InputError, SolveError
-from nld.io import load_table, save_table, sidecar_path
+from nld.output.io import load_table, save_table, sidecar_path
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -131,7 +131,7 @@ def test_simulate_ideal_matches_closed_form(tmp_path, capsys):
 
 def test_simulate_failed_integration_exits_1_and_writes(tmp_path, capsys, monkeypatch):
     import importlib
-    sim_mod = importlib.import_module("nld.simulate")   # the module (nld.simulate is the function)
+    sim_mod = importlib.import_module("nld.run.simulate")   # the module (nld.run.simulate is the function)
     real = sim_mod.simulate
 
     def failing(*a, **k):
@@ -148,11 +148,11 @@ def test_simulate_failed_integration_exits_1_and_writes(tmp_path, capsys, monkey
 
 
 def test_solve_error_exits_1(capsys, monkeypatch):
-    import nld.ideal
+    import nld.model.ideal
 
     def boom(scene, times):
         raise SolveError("position analysis failed at t = 0.001 s: singular Jacobian")
-    monkeypatch.setattr(nld.ideal, "ideal_solution", boom)
+    monkeypatch.setattr(nld.model.ideal, "ideal_solution", boom)
     rc, _, err = run(capsys, "simulate", "slider_crank", "--ideal")
     assert rc == 1
     assert_one_line_error(err, "singular Jacobian")
@@ -304,10 +304,10 @@ def test_lyapunov_command_bad_input(capsys):
 
 
 def test_package_level_simulate_is_the_function():
-    """``nld.simulate(...)`` as in the README, also after ``import nld.simulate``."""
+    """``nld.simulate(...)`` as in the README, also after ``import nld.run.simulate``."""
     import importlib
-    import nld.simulate  # noqa: F401
-    assert callable(nld.simulate) and nld.simulate is importlib.import_module("nld.simulate").simulate
+    import nld.run.simulate  # noqa: F401
+    assert callable(nld.run.simulate) and nld.run.simulate is importlib.import_module("nld.run.simulate").simulate
     res = nld.simulate("slider_crank", revs=0.05)
     assert res.success and len(res.table) > 10
     assert nld.load_scene("four_bar").name == "four_bar"

@@ -1,4 +1,4 @@
-"""Contact and friction laws (nld/contact.py, nld/friction.py) against hand-computed values.
+"""Contact and friction laws (nld/laws/contact.py, nld/laws/friction.py) against hand-computed values.
 
 Reference values are written out as arithmetic with concrete numbers so that each one can be
 checked with a pocket calculator; the laws are never used to compute their own expected values.
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nld.contact import (
+from nld.laws.contact import (
     contact_energy,
     flores,
     gonthier,
@@ -20,7 +20,7 @@ from nld.contact import (
     journal_bearing_stiffness,
     lankarani_nikravesh,
 )
-from nld.friction import ambrosio, coulomb, slip_velocity, viscous
+from nld.laws.friction import ambrosio, coulomb, slip_velocity, viscous
 
 # Common numbers: K = 1e10 N/m^1.5, n = 1.5, delta = 1e-5 m, ddot = 0.3 m/s, v_minus = 0.5 m/s,
 # cr = 0.9.

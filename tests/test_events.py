@@ -102,7 +102,7 @@ def test_more_samples_resolve_closer_roots(m):
 
 @pytest.mark.parametrize("bad", [-1, 65, 2.5, "3", True])
 def test_event_samples_bad_input_is_one_line(bad):
-    from nld.simulate import simulate
+    from nld.run.simulate import simulate
     with pytest.raises(InputError) as e:
         simulate("slider_crank", revs=0.01, event_samples=bad)
     msg = str(e.value)
@@ -110,7 +110,7 @@ def test_event_samples_bad_input_is_one_line(bad):
 
 
 def test_system_refuses_bad_event_samples_and_a_wrapper_without_it():
-    from nld.systems import ContinuousSystem
+    from nld.systems.core import ContinuousSystem
     with pytest.raises(InputError, match="event_samples = -2"):
         ContinuousSystem(unit_rhs, [0.0], event_samples=-2)
 

@@ -14,9 +14,9 @@ import math
 import numpy as np
 import pytest
 
-from nld.ideal import ideal_solution, loop_closure_error
-from nld.scene import load_scene
-from nld.simulate import simulate
+from nld.model.ideal import ideal_solution, loop_closure_error
+from nld.model.scene import load_scene
+from nld.run.simulate import simulate
 
 RTOL = 1e-7
 NAME = "excavator"

@@ -1,12 +1,12 @@
-"""nld.extrema: per-revolution maxima located from the dense output."""
+"""nld.analysis.extrema: per-revolution maxima located from the dense output."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from nld.errors import InputError
-from nld.extrema import candidates, revolution_maxima
-from nld.simulate import simulate
+from nld.analysis.extrema import candidates, revolution_maxima
+from nld.run.simulate import simulate
 
 
 def test_candidates_are_the_largest_local_maxima_first():
@@ -25,7 +25,7 @@ def run():
 
 def test_located_peak_bounds_dense_sampling_and_exceeds_the_samples(run):
     """The located peak is >= every sample of the run, and a brute-force run of the same trajectory
-    with 8x the detection samples (nld.simulate, one revolution per chunk: the same steps) finds no
+    with 8x the detection samples (nld.run.simulate, one revolution per chunk: the same steps) finds no
     larger value; the stored samples miss a good part of the rod's impact peaks. (With 720
     detection samples per revolution and 3 candidates this fails: a spike between two samples that
     raises neither is not a candidate; the zhang2013 study reports that check.)"""
@@ -73,7 +73,7 @@ def test_ctrl_c_keeps_the_finished_revolutions(monkeypatch):
     import contextlib
     import nld.interrupt
     from nld.errors import Interrupted
-    from nld.simulate import INTERRUPTED
+    from nld.run.simulate import INTERRUPTED
 
     class Late:                      # the request "arrives" during the second revolution
         handled = False

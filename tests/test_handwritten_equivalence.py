@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nld.kernel import compile_scene
-from nld.scene import load_scene
-from nld.simulate import crank_period, initial_state, state_scales
+from nld.kernel.compile import compile_scene
+from nld.model.scene import load_scene
+from nld.run.simulate import crank_period, initial_state, state_scales
 
 ROOT = Path(__file__).resolve().parents[1]
 RTOL_RHS = 1e-10
@@ -35,7 +35,7 @@ def _load_hand():
     name = "handwritten_slider_crank"
     if name in sys.modules:
         return sys.modules[name]
-    from nld.kernel import drop_stale_numba_cache
+    from nld.kernel.compile import drop_stale_numba_cache
     drop_stale_numba_cache(ROOT / "benchmarks" / f"{name}.py")
     spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)

@@ -1,4 +1,4 @@
-"""Hard regression cases (nld.hard_cases, docs/integrator.md "Hard cases").
+"""Hard regression cases (nld.run.hard_cases, docs/integrator.md "Hard cases").
 
 Each case must either run within its tolerance (status 0, all finite, the journal positions of a
 short window within a bound of an independent run: another method or a much tighter tolerance) and
@@ -12,8 +12,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from nld import hard_cases as hc
-from nld.hard_cases import CASES, run_case
+from nld.run import hard_cases as hc
+from nld.run.hard_cases import CASES, run_case
 
 # cases whose expected outcome is met today
 MET = [n for n in CASES if n not in ("stiff_damped_rodas_tight", "energy_10krev_dop853")]
@@ -169,7 +169,7 @@ def test_energy_10krev_dop853():
 def test_dop853_outputs_before_the_stop_are_finite():
     """dop853 wrote NaN rows here (outputs in [10.8559, 10.8562] s) until a step whose dense-output
     stages are not finite was rejected (the quick variant: tests/test_integrators.py)."""
-    from nld.simulate import simulate
+    from nld.run.simulate import simulate
     te = np.concatenate([np.linspace(0.0, 10.8559, 100, endpoint=False), np.linspace(10.8559, 10.8562, 301)])
     r = simulate("slider_crank", t_end=float(te[-1]), t_eval=te, rtol=1e-10, method="dop853",
                  overrides=list(hc.CONSERVATIVE))

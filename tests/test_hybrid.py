@@ -27,9 +27,9 @@ import math
 import numpy as np
 import pytest
 
-from nld.kernel import compile_scene
-from nld.scene import load_scene
-from nld.simulate import simulate
+from nld.kernel.compile import compile_scene
+from nld.model.scene import load_scene
+from nld.run.simulate import simulate
 
 W = 2.0 * math.pi          # rad/s, drum speed (period 1 s)
 RJ, C, D = 0.05, 1e-4, 1e-5
@@ -297,8 +297,8 @@ def test_tangent_vector_matches_finite_differences_through_stick_slip(wheel_scen
     manifold: the slip-speed perturbation vanishes, the angle keeps the time shift), stick -> slip-,
     slip- -> stick and stick -> slip+ (generated events_jvp / on_event_jvp through the stick
     multiplier's solve)."""
-    from nld.systems import SceneSystem, advance
-    from nld.tangent import diag_dict, run_tangent
+    from nld.systems.core import SceneSystem, advance
+    from nld.systems.tangent import diag_dict, run_tangent
     cf = closed_form()
     S = SceneSystem(load_scene(str(wheel_scene)), y0=[0.0, cf["wb"]])
     t0, t1 = 0.3, 1.3
@@ -347,7 +347,7 @@ def test_both_laws_power_balance():
 def test_hybrid_coulomb_tends_to_ideal():
     """With hybrid Coulomb friction the slider approaches the ideal kinematics as the clearance
     shrinks (test_simulator's ideal-limit check)."""
-    from nld.ideal import ideal_solution
+    from nld.model.ideal import ideal_solution
     errs = []
     for c in (5e-4, 2e-5):
         ov = [f"joints.B.clearance={c}", "driver.speed=100.0", "joints.B.friction.law=coulomb",

@@ -1,13 +1,13 @@
-"""Tests of nld.ideal: the ideal-joint reference in absolute coordinates."""
+"""Tests of nld.model.ideal: the ideal-joint reference in absolute coordinates."""
 import math
 
 import numpy as np
 import pytest
 
-from nld import ideal
+from nld.model import ideal
 from nld.errors import SolveError
-from nld.scene import load_scene
-from nld.scene_model import Body, Driver, Joint, Load, Scene
+from nld.model.scene import load_scene
+from nld.model.scene_model import Body, Driver, Joint, Load, Scene
 
 R, L = 0.05, 0.12                      # slider-crank crank and rod lengths (m)
 

@@ -19,7 +19,7 @@ from nld.integrators import rosenbrock as rosmod
 
 # the package attribute ``dop853`` is the function; the module is in sys.modules
 d853mod = importlib.import_module("nld.integrators.dop853")
-from nld.simulate import simulate
+from nld.run.simulate import simulate
 
 # ------------------------------------------------------------------ test problems
 # One right-hand side for all test problems, chosen by p[0], and one wrapper per integrator call
@@ -333,8 +333,8 @@ def test_default_method_is_dopri5_and_unknown_method_is_rejected():
 
 
 def test_generated_kernel_has_the_wrappers():
-    from nld.kernel import compile_scene
-    from nld.scene import load_scene
+    from nld.kernel.compile import compile_scene
+    from nld.model.scene import load_scene
     k = compile_scene(load_scene("slider_crank"))
     assert all(hasattr(k.module, f) for f in ("solve", "solve_dop853", "solve_rodas"))
 

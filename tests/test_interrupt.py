@@ -1,4 +1,4 @@
-"""Ctrl-C and broken pipes (nld.interrupt, the chunked integration of nld.simulate).
+"""Ctrl-C and broken pipes (nld.interrupt, the chunked integration of nld.run.simulate).
 
 Real subprocesses receive SIGINT in the middle of a compiled integration: they end within seconds
 with exit status 130, one line saying what was kept, the partial result on disk and no core dump
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import nld
-from nld.io import load_table
+from nld.output.io import load_table
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -184,7 +184,7 @@ def test_interrupted_partial_result_api_shape():
     e = Interrupted("x", partial=1, kept="y")
     assert e.partial == 1 and e.kept == "y"
     import importlib
-    sim_mod = importlib.import_module("nld.simulate")
+    sim_mod = importlib.import_module("nld.run.simulate")
     assert sim_mod.INTERRUPTED < 0 and sim_mod.INTERRUPTED not in (-1, -2, -3, -4, -5, -6)
 
 

@@ -5,8 +5,8 @@ import ast
 import importlib.util
 from pathlib import Path
 
-from nld.kernel import compile_scene, kernel_dependencies
-from nld.scene import load_scene
+from nld.kernel.compile import compile_scene, kernel_dependencies
+from nld.model.scene import load_scene
 
 
 def _nld_imports(path: Path) -> set[Path]:

@@ -1,4 +1,4 @@
-"""Validation of the Lyapunov-exponent estimators (nld.lyapunov) on systems with known exponents
+"""Validation of the Lyapunov-exponent estimators (nld.analysis.lyapunov) on systems with known exponents
 (references.md section 5) and on the slider-crank scene. docs/lyapunov.md lists the values.
 
 Quick variants run by default; long ones are marked slow (pytest -m slow).
@@ -12,7 +12,7 @@ from numba import njit
 
 from nld import systems as S
 from nld.errors import InputError, SolveError
-from nld.lyapunov import (_cross_events, _import_nolds, lyapunov_benettin, lyapunov_nolds,
+from nld.analysis.lyapunov import (_cross_events, _import_nolds, lyapunov_benettin, lyapunov_nolds,
                           lyapunov_spectrum)
 
 LN2 = math.log(2.0)

@@ -1,5 +1,5 @@
-"""Poincaré sections (nld.poincare): stroboscopic maps of scenes and of any ODE, hyperplane
-sections, period detection; the section plots of nld.plots."""
+"""Poincaré sections (nld.analysis.poincare): stroboscopic maps of scenes and of any ODE, hyperplane
+sections, period detection; the section plots of nld.output.plots."""
 import math
 
 import numpy as np
@@ -8,10 +8,10 @@ from numba import njit
 
 from nld.errors import InputError
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
-from nld.poincare import hyperplane_section, period_of, stroboscopic, stroboscopic_rhs
-from nld.simulate import crank_period, simulate
-from nld.scene import load_scene
-from nld.systems import duffing
+from nld.analysis.poincare import hyperplane_section, period_of, stroboscopic, stroboscopic_rhs
+from nld.run.simulate import crank_period, simulate
+from nld.model.scene import load_scene
+from nld.systems.core import duffing
 
 TORQUE = ['driver.mode="torque"', "driver.inertia=1e-3", "driver.torque=0.0"]
 
@@ -189,12 +189,12 @@ def test_input_errors():
     with pytest.raises(InputError, match="direction"):
         hyperplane_section("slider_crank", revs=1, direction=2)
     with pytest.raises(InputError, match="forcing period"):
-        from nld.systems import lorenz
+        from nld.systems.core import lorenz
         stroboscopic(lorenz(), revs=2)
 
 
 def test_section_plots():
-    from nld.plots import exponent_convergence, poincare_scatter
+    from nld.output.plots import exponent_convergence, poincare_scatter
     sec = stroboscopic(duffing(gamma=0.5), transient_revs=10, revs=50)
     fig = poincare_scatter(sec)
     ax = fig.axes[0]
@@ -217,7 +217,10 @@ def test_section_plots():
 def _patched_cli(monkeypatch):
     """nld.cli with the analysis sub-commands registered (as the lead wires them in cli.py)."""
     import argparse
-    from nld import bifurcation, cli, poincare, spectrum
+    from nld import cli
+    from nld.analysis import bifurcation
+    from nld.analysis import poincare
+    from nld.analysis import spectrum
     build = cli.build_parser
 
     def build_parser():
@@ -232,7 +235,7 @@ def _patched_cli(monkeypatch):
 
 
 def test_cli_poincare(monkeypatch, capsys, tmp_path):
-    from nld.io import load_table
+    from nld.output.io import load_table
     cli = _patched_cli(monkeypatch)
     out = tmp_path / "sec.parquet"
     rc = cli.main(["poincare", "four_bar", "--set", "driver.speed=10", "--transient-revs", "2",
@@ -254,8 +257,8 @@ def test_period_of_uses_the_clearance_for_eccentricity_near_zero():
     """A fixed point whose ex is ~0 repeats to 1e-9 of the clearance: judged on its own tiny range
     it looks aperiodic; with section_scales (clearance for J.ex/J.ey) it is period 1."""
     import pandas as pd
-    from nld.poincare import period_of, section_scales
-    from nld.scene import load_scene
+    from nld.analysis.poincare import period_of, section_scales
+    from nld.model.scene import load_scene
     scene = load_scene("slider_crank")
     c = scene.joints["B"].clearance
     rng = np.random.default_rng(0)

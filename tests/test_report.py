@@ -1,4 +1,4 @@
-"""PDF report builder (nld.report): page count, metadata, reproducible bytes, study data on disk."""
+"""PDF report builder (nld.output.report): page count, metadata, reproducible bytes, study data on disk."""
 from __future__ import annotations
 
 import re
@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nld.io import load_table
-from nld.report import Report, save_study_data
+from nld.output.io import load_table
+from nld.output.report import Report, save_study_data
 
 
 def count_pages(path) -> int:
@@ -53,7 +53,7 @@ def test_three_content_pages_plus_title_page(tmp_path):
 
 
 def test_metadata_has_author_and_git_hash(tmp_path):
-    from nld.provenance import git_hash
+    from nld.output.provenance import git_hash
     rep = Report(tmp_path / "m.pdf", "Meta", scene="slider_crank")
     md = rep.metadata()
     assert md["Author"] == "nld" and md["Title"] == "Meta"
@@ -115,7 +115,7 @@ def test_text_page_stays_inside_the_right_margin(tmp_path):
     """Running text wraps so that the longest line ends inside the page margin (at 145 characters
     per line, long bullets ran past the right edge of an A4 landscape page)."""
     from pathlib import Path
-    from nld import report
+    from nld.output import report
     rep = report.Report(tmp_path / "t.pdf", "t")
     words = Path(__file__).resolve().parent.parent.joinpath("docs", "studies.md").read_text()
     paragraphs = [p.replace("\n", " ") for p in words.split("\n\n")[:40]]
@@ -128,7 +128,7 @@ def test_text_page_stays_inside_the_right_margin(tmp_path):
 
 def test_git_hash_from_the_environment_takes_precedence(monkeypatch):
     """A batch copy names its commit in NLD_GIT_HASH; its own .git (possibly stale) is not asked."""
-    from nld import provenance
+    from nld.output import provenance
     provenance.git_hash.cache_clear()
     try:
         monkeypatch.setenv("NLD_GIT_HASH", "abc1234")

@@ -1,4 +1,4 @@
-"""Scene loading, overrides, validation and the resolved listing (nld/scene.py)."""
+"""Scene loading, overrides, validation and the resolved listing (nld/model/scene.py)."""
 from __future__ import annotations
 
 import copy
@@ -8,9 +8,9 @@ import tomllib
 import pytest
 
 from nld.errors import InputError, SceneError
-from nld.scene import (apply_overrides, builtin_scenes, format_scene, load_scene, parse_override,
+from nld.model.scene import (apply_overrides, builtin_scenes, format_scene, load_scene, parse_override,
                        scene_from_dict, scene_path, scene_to_dict, validate)
-from nld.scene_model import Body, Driver, Joint, Load, Scene
+from nld.model.scene_model import Body, Driver, Joint, Load, Scene
 
 
 def raw_slider_crank() -> dict:

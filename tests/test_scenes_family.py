@@ -8,9 +8,9 @@ tens of milliseconds.
 import numpy as np
 import pytest
 
-from nld.ideal import ideal_solution, loop_closure_error
-from nld.scene import load_scene
-from nld.simulate import simulate
+from nld.model.ideal import ideal_solution, loop_closure_error
+from nld.model.scene import load_scene
+from nld.run.simulate import simulate
 
 NEW_SCENES = ["four_bar", "slider_crank_crankpin", "slider_crank_two", "slider_crank_olyaei"]
 CLEARANCE_JOINTS = {"four_bar": ["B"], "slider_crank_crankpin": ["A"], "slider_crank_two": ["A", "B"],

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from nld.ideal import ideal_solution
-from nld.kernel import compile_scene
-from nld.scene import load_scene
-from nld.simulate import simulate
+from nld.model.ideal import ideal_solution
+from nld.kernel.compile import compile_scene
+from nld.model.scene import load_scene
+from nld.run.simulate import simulate
 
 CONSERVATIVE = ['driver.mode="torque"', 'joints.B.contact.law="hertz"']
 
@@ -38,7 +38,7 @@ def test_energy_drift_shrinks_with_tolerance():
 
 
 def test_zero_clearance_is_an_ideal_joint_matching_independent_reference():
-    """clearance = 0 compiles a closed loop (no contact code) that matches nld.ideal (absolute coords)."""
+    """clearance = 0 compiles a closed loop (no contact code) that matches nld.model.ideal (absolute coords)."""
     sc = load_scene("slider_crank", ["joints.B.clearance=0"])
     k = compile_scene(sc)
     src = k.source_path.read_text()
@@ -226,5 +226,5 @@ def test_torque_driven_closed_loop_conserves_energy():
     E = r.table["energy.total"].to_numpy()
     assert np.abs(E - E[0]).max() < 1e-8 * abs(E[0])
     # the loop stays closed: slider pin and rod end coincide
-    from nld.ideal import loop_closure_error
+    from nld.model.ideal import loop_closure_error
     assert loop_closure_error(sc, r.table) < 1e-10

@@ -1,4 +1,4 @@
-"""Spectra (nld.spectrum): known frequencies, Parseval, orders of the crank frequency, run tables."""
+"""Spectra (nld.analysis.spectrum): known frequencies, Parseval, orders of the crank frequency, run tables."""
 import math
 
 import numpy as np
@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from nld.errors import InputError
-from nld.spectrum import peaks, resample_uniform, spectrum, table_spectrum
+from nld.analysis.spectrum import peaks, resample_uniform, spectrum, table_spectrum
 
 FS = 2000.0          # Hz
 FC = 12.5            # Hz, "crank" frequency
@@ -117,7 +117,7 @@ def test_table_spectrum_drops_the_transient_and_resamples():
 def test_slider_crank_slider_position_has_crank_harmonics():
     """The slider position of the slider-crank: fundamental at order 1, second harmonic next
     (crank r = 50 mm, rod l = 120 mm: the 2nd harmonic is about r/(4 l) of the fundamental)."""
-    from nld.simulate import simulate
+    from nld.run.simulate import simulate
     res = simulate("slider_crank", revs=12, samples_per_rev=256)
     spec = table_spectrum(res.table, "slider.x", transient_revs=2, method="fft", window="boxcar")
     fc = spec.attrs["crank_frequency"]
@@ -146,7 +146,7 @@ def test_input_errors():
 
 
 def test_spectrum_plot_marks_harmonics():
-    from nld.plots import spectrum_plot
+    from nld.output.plots import spectrum_plot
     _, x = _signal(8000)
     spec = spectrum(x, 1 / FS, crank_frequency=FC)
     spec.attrs["observable"] = "B.Fn"
@@ -162,8 +162,8 @@ def test_spectrum_plot_marks_harmonics():
 
 def test_cli_spectrum_of_a_saved_run(monkeypatch, capsys, tmp_path):
     from test_poincare import _patched_cli
-    from nld.io import load_table, save_table
-    from nld.simulate import simulate
+    from nld.output.io import load_table, save_table
+    from nld.run.simulate import simulate
     cli = _patched_cli(monkeypatch)
     res = simulate("slider_crank", revs=6, samples_per_rev=128)
     run = save_table(res.table, tmp_path / "run.parquet", res.provenance)

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nld.io import load_table
-from nld.report import Report
+from nld.output.io import load_table
+from nld.output.report import Report
 from study_harness import count_pages, run_quick
 
 

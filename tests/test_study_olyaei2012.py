@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nld.io import load_table
-from nld.report import Report, source_date_epoch
+from nld.output.io import load_table
+from nld.output.report import Report, source_date_epoch
 from study_harness import count_pages, run_quick_recorded
 
 

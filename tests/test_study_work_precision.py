@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nld.io import load_table
-from nld.report import Report
+from nld.output.io import load_table
+from nld.output.report import Report
 
 ROOT = Path(__file__).resolve().parent.parent
 STUDY = ROOT / "studies" / "work_precision.py"

@@ -1,7 +1,7 @@
 """Study zhang2013_excavator (studies/zhang2013_excavator.py) in quick mode: files, pages, table.
 
 Quick mode (studies/zhang2013_excavator.py QUICK, ANALYSIS_QUICK): 5 cases x (1 + 5) crank revolutions
-at rtol 1e-6 with the per-revolution peaks located (nld.extrema), then the chaos analysis: 5 sweep
+at rtol 1e-6 with the per-revolution peaks located (nld.analysis.extrema), then the chaos analysis: 5 sweep
 points x (1 + 2 + 2 x 2) revolutions, all at rtol 1e-7. About 30-45 s on two cores with a warm kernel cache.
 """
 from __future__ import annotations
@@ -14,8 +14,8 @@ import shutil
 import subprocess
 
 from nld.cli import main
-from nld.io import load_table
-from nld.report import Report
+from nld.output.io import load_table
+from nld.output.report import Report
 from study_harness import ROOT, count_pages, load_study
 
 

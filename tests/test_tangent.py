@@ -1,4 +1,4 @@
-"""Tangent dynamics with saltation (nld.autodiff, nld.tangent, nld.integrators.tangent) and the
+"""Tangent dynamics with saltation (nld.kernel.autodiff, nld.systems.tangent, nld.integrators.tangent) and the
 tangent Lyapunov estimator: checks that the exponent is a property of the system, not of the
 estimator (issue 13; docs/lyapunov.md)."""
 import math
@@ -8,12 +8,12 @@ import pytest
 from numba import njit
 from scipy.optimize import fsolve
 
-from nld.autodiff import Registry, function_source, jvp_source
-from nld.contact import lankarani_nikravesh
-from nld.friction import ambrosio
-from nld.lyapunov import lyapunov_benettin, lyapunov_tangent
-from nld.systems import ContinuousSystem, SceneSystem, advance, lorenz
-from nld.tangent import diag_dict, run_tangent
+from nld.kernel.autodiff import Registry, function_source, jvp_source
+from nld.laws.contact import lankarani_nikravesh
+from nld.laws.friction import ambrosio
+from nld.analysis.lyapunov import lyapunov_benettin, lyapunov_tangent
+from nld.systems.core import ContinuousSystem, SceneSystem, advance, lorenz
+from nld.systems.tangent import diag_dict, run_tangent
 
 OLYAEI_C = ["joints.B.clearance=1e-4"]        # the issue's contact case (LN + Ambrosio, mu 0.1)
 DAMPED = ["joints.B.contact.law=hertz_damped", "joints.B.contact.damping=500",

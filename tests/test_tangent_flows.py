@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from numba import njit
 
-from nld.lyapunov import blocking_se, lyapunov_tangent
-from nld.systems import ContinuousSystem, duffing, linear, lorenz
+from nld.analysis.lyapunov import blocking_se, lyapunov_tangent
+from nld.systems.core import ContinuousSystem, duffing, linear, lorenz
 
 
 # ---------------------------------------------------------------- reference flows

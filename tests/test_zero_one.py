@@ -1,4 +1,4 @@
-"""The 0-1 test for chaos (nld.zero_one): logistic map (chaotic r = 4, 3.6; periodic r = 3.5,
+"""The 0-1 test for chaos (nld.analysis.zero_one): logistic map (chaotic r = 4, 3.6; periodic r = 3.5,
 3.83), its mean-square displacement against the definition, invariances, input checks, and a
 scene's stroboscopic series against the sign of the largest Lyapunov exponent."""
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from nld.errors import InputError
-from nld.zero_one import _msd, zero_one_test
+from nld.analysis.zero_one import _msd, zero_one_test
 
 
 def logistic(r, n, x=0.3, transient=1000):
@@ -107,9 +107,9 @@ def _section_and_exponent(overrides, transient):
     """100 stroboscopic points of B.ex at rtol 1e-10, then lambda1 (Benettin) over 20 revolutions
     from the end of the section. rtol 1e-10: at 1e-8 and 1e-9 the periodic case's section wanders
     over the clearance (lambda ~ +3 per revolution, K ~ 1): see docs/analysis.md."""
-    from nld.lyapunov import lyapunov_tangent
-    from nld.poincare import stroboscopic
-    from nld.systems import SceneSystem
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
     sec = stroboscopic("slider_crank", transient_revs=transient, revs=100, overrides=overrides,
                        rtol=1e-10)
     s = SceneSystem("slider_crank", overrides)

@@ -217,7 +217,7 @@ def fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t, ev
 
 def check_event_samples(value, field: str = "event_samples") -> int:
     """``value`` as an int in [0, MAX_EVENT_SAMPLES], or InputError naming the field (one line)."""
-    from ..errors import InputError
+    from nld.errors import InputError
     ok = isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
     if not ok or not 0 <= int(value) <= MAX_EVENT_SAMPLES:
         raise InputError(f"{field} = {value!r}: expected an integer from 0 (the step's ends only) "

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import SceneError
-from .scene_model import Scene
+from nld.errors import SceneError
+from nld.model.scene_model import Scene
 
 GROUND = -1
 

@@ -19,8 +19,8 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from .errors import InputError, SceneError
-from .scene_model import (CONTACT_LAWS, DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES, MODULATIONS,
+from nld.errors import InputError, SceneError
+from nld.model.scene_model import (CONTACT_LAWS, DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES, MODULATIONS,
                           Body, Contact, Driver, Friction, Joint, Load, Scene)
 
 __all__ = ["builtin_scenes", "scene_path", "load_scene", "resolve_scene", "parse_override", "apply_overrides",
@@ -151,7 +151,7 @@ def scene_path(name_or_path) -> Path:
         _KEEP_ALIVE.append(cm)
         return Path(p)
     if not isinstance(name_or_path, (str, os.PathLike)):
-        from .errors import InputTypeError
+        from nld.errors import InputTypeError
         raise InputTypeError(f"scene = {name_or_path!r}: must be a built-in scene name or the path of "
                              f"a .toml file (built-in scenes: {_builtin_list()})")
     p = Path(name_or_path).expanduser()
@@ -260,7 +260,7 @@ def apply_overrides(raw: dict, overrides) -> dict:
         return raw
     if isinstance(overrides, str):
         overrides = [overrides]
-    from .errors import InputTypeError
+    from nld.errors import InputTypeError
     if isinstance(overrides, dict):
         items = list(overrides.items())
     elif isinstance(overrides, (list, tuple)):
@@ -532,7 +532,7 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
     src = _string(st.get("source", ""), "scene.source")
     if source:
         src = str(source)
-    from .integrators import METHODS
+    from nld.integrators import METHODS
     method = _choice(st, "method", "scene", METHODS, "dopri5") if "method" in st else ""
     rtol = _num(st, "rtol", "scene", None, ge=1e-14, lt=1.0) if "rtol" in st else None
 
@@ -993,7 +993,7 @@ def _derived_stiffness(scene: Scene, joint: str):
     if j is None or not j.has_clearance or j.contact.stiffness is not None:
         return None
     try:
-        from .parameters import contact_stiffness   # lazy: imports numba
+        from nld.model.parameters import contact_stiffness   # lazy: imports numba
         return float(contact_stiffness(j))
     except Exception:   # noqa: BLE001 - the listing must not fail on an optional extra line
         return None

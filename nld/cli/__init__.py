@@ -37,8 +37,8 @@ import sys
 import time
 from pathlib import Path
 
-from . import __version__
-from .errors import InputError, Interrupted, SceneError, SolveError
+from nld.version import __version__
+from nld.errors import InputError, Interrupted, SceneError, SolveError
 
 PROG = "nld"
 STUDIES_ENV = "NLD_STUDIES_DIR"
@@ -109,7 +109,7 @@ def _samples_arg(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .simulate import DEFAULT_RTOL, DEFAULT_SAMPLES_PER_REV
+    from nld.run.simulate import DEFAULT_RTOL, DEFAULT_SAMPLES_PER_REV
     p = _Parser(prog=PROG, description="Nonlinear dynamics of planar mechanisms with clearance joints.")
     p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -141,12 +141,15 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--samples-per-rev", type=_samples_arg, default=DEFAULT_SAMPLES_PER_REV, metavar="N",
                     help=f"output samples per crank revolution (default {DEFAULT_SAMPLES_PER_REV})")
     sp.add_argument("--ideal", action="store_true",
-                    help="ideal-joint reference solution (nld.ideal) at the same output times")
+                    help="ideal-joint reference solution (nld.model.ideal) at the same output times")
     sp.add_argument("--out", metavar="FILE", help="write the table to FILE.csv or FILE.parquet "
                                                  "(provenance in FILE.json / parquet metadata)")
     sp.set_defaults(func=cmd_simulate)
 
-    from . import bifurcation, chaos_map, poincare, spectrum
+    from nld.analysis import bifurcation
+    from nld.analysis import chaos_map
+    from nld.analysis import poincare
+    from nld.analysis import spectrum
     poincare.add_arguments(sub)
     bifurcation.add_arguments(sub)
     spectrum.add_arguments(sub)
@@ -155,7 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("lyapunov", help="Lyapunov exponents of a scene (tangent dynamics)",
                         description="Largest Lyapunov exponent (or the first K with --k) from the "
                                     "tangent dynamics with saltation at every contact event "
-                                    "(nld.lyapunov.lyapunov_tangent), in 1/s and per crank "
+                                    "(nld.analysis.lyapunov.lyapunov_tangent), in 1/s and per crank "
                                     "revolution, with its uncertainty (about 95 %%) and the settings "
                                     "that produced it. --estimator benettin uses the two-trajectory "
                                     "method instead; --check computes both and says whether they agree.")
@@ -198,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=cmd_lyapunov)
 
     sp = sub.add_parser("hard-cases", help="run the named hard regression cases of the integrators",
-                        description="Run the hard cases (nld.hard_cases: very stiff contact, tiny and "
+                        description="Run the hard cases (nld.run.hard_cases: very stiff contact, tiny and "
                                     "large clearances, friction reversal, grazing contact, 10^4 "
                                     "revolutions, 10 000 rpm) and print a report per case; exit "
                                     "status 1 when a case fails its check.")
@@ -237,7 +240,7 @@ def _progress_args(sp) -> None:
 
 
 def cmd_scenes(args) -> int:
-    from .scene import builtin_scenes
+    from nld.model.scene import builtin_scenes
     scenes = builtin_scenes()
     width = max((len(n) for n in scenes), default=0)
     for name, desc in scenes.items():
@@ -246,17 +249,17 @@ def cmd_scenes(args) -> int:
 
 
 def cmd_show(args) -> int:
-    from .scene import format_scene, load_scene
+    from nld.model.scene import format_scene, load_scene
     scene = load_scene(args.scene, args.overrides)
     print(format_scene(scene))
     return 0
 
 
 def output_times(scene, *, revs=None, t_end=None, samples_per_rev: int):
-    """Output times (s) of a run, as :func:`nld.simulate.simulate` chooses them by default
+    """Output times (s) of a run, as :func:`nld.run.simulate.simulate` chooses them by default
     (InputError naming --revs / --t-end when the table would be too large for memory)."""
     import numpy as np
-    from .simulate import crank_period, output_rows
+    from nld.run.simulate import crank_period, output_rows
     if t_end is None:
         t_end = (1.0 if revs is None else revs) * crank_period(scene, "--revs")
     n = output_rows(scene, t_end, samples_per_rev, None, "--t-end" if revs is None else "--revs")
@@ -264,8 +267,8 @@ def output_times(scene, *, revs=None, t_end=None, samples_per_rev: int):
 
 
 def cmd_simulate(args) -> int:
-    from .io import check_table_path, save_table
-    from .scene import load_scene
+    from nld.output.io import check_table_path, save_table
+    from nld.model.scene import load_scene
     out = check_table_path(args.out) if args.out else None       # fail before the (long) run
     if out is not None:
         try:
@@ -278,15 +281,15 @@ def cmd_simulate(args) -> int:
     start = time.perf_counter()
     interrupted = None
     if args.ideal:
-        from .ideal import ideal_solution
-        from .simulate import provenance
+        from nld.model.ideal import ideal_solution
+        from nld.run.simulate import provenance
         table = ideal_solution(scene, times)
         wall = time.perf_counter() - start
         status, message, stats, events = 0, "ideal joints: position, velocity, acceleration and " \
-                                            "inverse-dynamics analysis (nld.ideal)", None, None
-        prov = provenance(scene, None, integrator="ideal (nld.ideal.ideal_solution)", t_end=t_end, wall=wall)
+                                            "inverse-dynamics analysis (nld.model.ideal)", None, None
+        prov = provenance(scene, None, integrator="ideal (nld.model.ideal.ideal_solution)", t_end=t_end, wall=wall)
     else:
-        from .simulate import simulate
+        from nld.run.simulate import simulate
         try:
             res = simulate(scene, t_eval=times, rtol=args.rtol, samples_per_rev=args.samples_per_rev,
                            progress=args.progress)
@@ -363,7 +366,7 @@ def studies_dir() -> Path:
     env = os.environ.get(STUDIES_ENV)
     if env:
         return Path(env).expanduser()
-    return Path(__file__).resolve().parent.parent / "studies"
+    return Path(__file__).resolve().parents[2] / "studies"
 
 
 def available_studies(d: Path | None = None) -> list[str]:
@@ -374,7 +377,7 @@ def available_studies(d: Path | None = None) -> list[str]:
 
 
 def cmd_hard_cases(args) -> int:
-    from .hard_cases import CASES, main as hard_main
+    from nld.run.hard_cases import CASES, main as hard_main
     unknown = [n for n in args.names if n not in CASES]
     if unknown:
         raise InputError(f"hard case {unknown[0]!r}: choose from {', '.join(CASES)}")
@@ -385,9 +388,9 @@ def cmd_hard_cases(args) -> int:
 def cmd_lyapunov(args) -> int:
     import json
 
-    from .lyapunov import lyapunov_benettin, lyapunov_spectrum, lyapunov_tangent
-    from .systems import SceneSystem
-    from .simulate import provenance
+    from nld.analysis.lyapunov import lyapunov_benettin, lyapunov_spectrum, lyapunov_tangent
+    from nld.systems.core import SceneSystem
+    from nld.run.simulate import provenance
     for name in ("transient", "revs", "rtol", "d0"):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
@@ -542,7 +545,7 @@ def committed_reports_dir(d: Path | None = None) -> Path:
 
 
 def cmd_study(args) -> int:
-    from . import progress
+    from nld import progress
     d = studies_dir()
     path = find_study(args.name, d)
     out_dir = Path(args.out_dir if args.out_dir is not None else DEFAULT_STUDY_OUT).expanduser()
@@ -558,7 +561,7 @@ def cmd_study(args) -> int:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise InputError(f"--out {str(out_dir)!r}: cannot create it ({e.strerror or e})") from None
-    from .report import study_started
+    from nld.output.report import study_started
     start = time.perf_counter()
     study_started(start)
     progress.reset_stage()
@@ -597,7 +600,8 @@ def _same_dir(a: Path, b: Path) -> bool:
 
 def main(argv=None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
-    from . import interrupt, progress
+    from nld import interrupt
+    from nld import progress
     argv = list(sys.argv[1:] if argv is None else argv)
     interrupt.install()
     try:

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import SceneError, SolveError
-from nld.scene_model import Scene
+from nld.model.scene_model import Scene
 
 __all__ = ["assemble", "ideal_solution", "loop_closure_error", "POSITION_TOL", "MAX_NEWTON_ITER"]
 

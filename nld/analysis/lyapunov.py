@@ -1,4 +1,4 @@
-"""Lyapunov exponents of any system of ``nld.systems`` (flows, maps, mechanism scenes).
+"""Lyapunov exponents of any system of ``nld.systems.core`` (flows, maps, mechanism scenes).
 
 Estimators (see docs/lyapunov.md):
 
@@ -17,7 +17,7 @@ Estimators (see docs/lyapunov.md):
   scalar time series, for comparison only.
 
 Distances are measured in the scaled norm ||dy||_s = sqrt(sum_i (dy_i / scale_i)^2) with the
-system's per-state scales (for a scene: clearance-based, ``nld.simulate.state_scales``), so the
+system's per-state scales (for a scene: clearance-based, ``nld.run.simulate.state_scales``), so the
 tiny journal coordinates are not swamped by angles and the result does not depend on units.
 
 Units: flows 1/s (natural log per second of the system's time); ``per_revolution`` = exponent x
@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .errors import InputError
-from .systems import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
+from nld.errors import InputError
+from nld.systems.core import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
 
 __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_benettin",
            "largest_exponent", "ESTIMATORS",
@@ -450,7 +450,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
                       progress=None) -> LyapunovResult:
     """Largest Lyapunov exponent by the two-trajectory method of Benettin et al. (1980).
 
-    system: any ``nld.systems`` system (ContinuousSystem, SceneSystem, DiscreteMap).
+    system: any ``nld.systems.core`` system (ContinuousSystem, SceneSystem, DiscreteMap).
 
     Flows (times in the system's unit, s):
       renorm_interval T: the system's period (a scene: one crank revolution), else 1.0.
@@ -657,7 +657,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
 # ---------------------------------------------------------------- tangent dynamics
 def _progress_bar(total: float, desc: str, unit: str, enabled):
     """The progress bar of nld.progress (stderr; None: automatic, as the command line set it)."""
-    from .progress import progress_bar
+    from nld.progress import progress_bar
     return progress_bar(total=total, unit=unit, desc=desc, enabled=enabled, delay=2.0)
 
 
@@ -695,11 +695,11 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     """The first k Lyapunov exponents from the tangent (variational) dynamics, with saltation
     matrices at every event (docs/lyapunov.md). The default estimator of ``nld lyapunov``.
 
-    system: any continuous system of ``nld.systems`` (scene, built-in or user ODE); a map is
+    system: any continuous system of ``nld.systems.core`` (scene, built-in or user ODE); a map is
     sent to the tangent-map QR of ``lyapunov_spectrum``. k: number of exponents (default 1).
 
     The reference trajectory and k tangent vectors are integrated in lock step by DOPRI5
-    (``nld.tangent``, ``nld.integrators.tangent``): the same stages and steps, the event
+    (``nld.systems.tangent``, ``nld.integrators.tangent``): the same stages and steps, the event
     location of the reference, each tangent vector mapped by the event's saltation matrix; the
     vectors are re-orthonormalised (modified Gram-Schmidt in the scaled norm) every
     ``renorm_interval`` and ln R_cc / T are the local rates (Benettin et al. 1980; Shimada &
@@ -722,8 +722,8 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     and saltation counts (events, upward crossings = contact onsets of a scene, grazing events,
     simultaneous events) and per-period rates of them; ``settings`` every setting used.
     """
-    from .tangent import diag_dict, run_tangent, tangent_functions
-    from .integrators.tangent import new_diag
+    from nld.systems.tangent import diag_dict, run_tangent, tangent_functions
+    from nld.integrators.tangent import new_diag
     if system.is_map:
         return lyapunov_spectrum(system, k, transient=transient, total=total,
                                  renorm_interval=renorm_interval, seed=seed, n_blocks=n_blocks)
@@ -885,7 +885,7 @@ def largest_exponent(system, estimator: str = "tangent", *, total, transient=0.0
     (:func:`lyapunov_benettin`, two trajectories, separation ``d0``). total: the averaging time
     (s); transient: discarded first (s, default 0: a sweep starts from the end of a section,
     already on the attractor); rtol: default the estimator's (1e-10). The result's
-    ``settings`` hold everything used; ``nld.report.estimator_text`` turns them into one line.
+    ``settings`` hold everything used; ``nld.output.report.estimator_text`` turns them into one line.
     """
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator = {estimator!r}: must be one of {', '.join(ESTIMATORS)}")

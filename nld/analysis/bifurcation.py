@@ -2,9 +2,9 @@
 
 :func:`sweep` runs, for every value of one ``--set`` key (``driver.speed``,
 ``joints.B.clearance``, ``joints.B.friction.mu`` ...), a stroboscopic section
-(:func:`nld.poincare.stroboscopic`): ``transient_revs`` crank revolutions discarded, then ``revs``
-section points; each point also gets a period estimate (:func:`nld.poincare.period_of`) and,
-optionally, the largest Lyapunov exponent (``nld.lyapunov.largest_exponent``: the tangent
+(:func:`nld.analysis.poincare.stroboscopic`): ``transient_revs`` crank revolutions discarded, then ``revs``
+section points; each point also gets a period estimate (:func:`nld.analysis.poincare.period_of`) and,
+optionally, the largest Lyapunov exponent (``nld.analysis.lyapunov.largest_exponent``: the tangent
 estimator with saltation by default, the two-trajectory one on request).
 
 * Independent points (default) run in parallel: a local ``ProcessPoolExecutor`` (spawned
@@ -49,8 +49,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
-from .interrupt import end_pool
+from nld.errors import InputError
+from nld.interrupt import end_pool
 
 __all__ = ["sweep", "load_sweep", "parse_values", "add_arguments", "cli_bifurcation"]
 
@@ -89,7 +89,7 @@ class _Spec:
 
 
 def _scene_for(spec: _Spec, value):
-    from .scene import apply_overrides, scene_from_dict
+    from nld.model.scene import apply_overrides, scene_from_dict
     raw = copy.deepcopy(spec.raw)
     apply_overrides(raw, {spec.param: value})
     return scene_from_dict(raw, spec.source)
@@ -104,8 +104,8 @@ def _failed_table(spec: _Spec, observables) -> pd.DataFrame:
 
 def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None) -> dict:
     """Run one point; never raises for a bad value or a failed integration (status 'failed')."""
-    from .kernel import compile_scene
-    from .poincare import default_observables, period_of, section_scales, stroboscopic
+    from nld.kernel.compile import compile_scene
+    from nld.analysis.poincare import default_observables, period_of, section_scales, stroboscopic
     start = time.perf_counter()
     notes = []
     obs = spec.observables
@@ -164,10 +164,10 @@ def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None)
 def _lyapunov(spec: _Spec, scene, kern, sec):
     """(exponent 1/s, uncertainty 1/s, note) from the end of the section, or NaNs and a note."""
     try:
-        from .lyapunov import largest_exponent
-        from .systems import SceneSystem
+        from nld.analysis.lyapunov import largest_exponent
+        from nld.systems.core import SceneSystem
     except ImportError as e:
-        return math.nan, math.nan, f"lyapunov skipped: nld.lyapunov not available ({e})"
+        return math.nan, math.nan, f"lyapunov skipped: nld.analysis.lyapunov not available ({e})"
     try:
         system = SceneSystem(scene, kernel=kern)
         system.y0 = np.array(sec.y_final, dtype=float)
@@ -190,15 +190,15 @@ def _warm_worker(spec: _Spec, value) -> int:
     """Load the kernel (numba disk cache) once per worker process; returns the pid."""
     global _WORKER_SPEC
     _WORKER_SPEC = spec
-    from .interrupt import ignore_in_worker
-    from .progress import set_default
+    from nld.interrupt import ignore_in_worker
+    from nld.progress import set_default
     ignore_in_worker()          # Ctrl-C reaches the process group: the main process ends the pool
     set_default(False)          # no progress bars from workers
     if spec.cache_dir and not os.environ.get("NLD_CACHE_DIR"):
         os.environ["NLD_CACHE_DIR"] = spec.cache_dir
     try:
-        from .kernel import compile_scene
-        from .simulate import crank_period, simulate
+        from nld.kernel.compile import compile_scene
+        from nld.run.simulate import crank_period, simulate
         scene = _scene_for(spec, value)
         kern = compile_scene(scene)
         simulate(scene, t_eval=np.array([0.0, 0.01 * crank_period(scene)]), land=True,
@@ -348,8 +348,8 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     scene: Scene, built-in name or TOML path; overrides: base ``--set`` values applied first.
     param: any ``--set`` key (``driver.speed``, ``joints.B.clearance``, ...); values: numbers
     (or strings, for a key that takes a string).
-    transient_revs, revs, observables, rtol, max_steps: as :func:`nld.poincare.stroboscopic`.
-    period_tol, n_max: as :func:`nld.poincare.period_of`.
+    transient_revs, revs, observables, rtol, max_steps: as :func:`nld.analysis.poincare.stroboscopic`.
+    period_tol, n_max: as :func:`nld.analysis.poincare.period_of`.
     continuation / up_down: see the module docstring.
     workers: local worker processes (default: the CPU count, at most one per point; 1 runs in
     this process); dask: a ``distributed.Client`` or a scheduler address ("tcp://host:8786")
@@ -358,9 +358,9 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     whose file exists. lyapunov: also the largest exponent over ``lyapunov_revs`` (default revs)
     revolutions from the end of the section (rtol ``lyapunov_rtol``, default the lyapunov
     module's 1e-10) by ``lyapunov_estimator``: "tangent" (default,
-    ``nld.lyapunov.lyapunov_tangent``, saltation at every contact event) or "benettin"
-    (``nld.lyapunov.lyapunov_benettin``, two trajectories), skipped with a note in ``message`` when
-    nld.lyapunov is not available. progress: a progress bar in points on stderr (None: when
+    ``nld.analysis.lyapunov.lyapunov_tangent``, saltation at every contact event) or "benettin"
+    (``nld.analysis.lyapunov.lyapunov_benettin``, two trajectories), skipped with a note in ``message`` when
+    nld.analysis.lyapunov is not available. progress: a progress bar in points on stderr (None: when
     stderr is a terminal, True, False; see nld.progress); a callable is taken as ``on_point``.
     on_point: optional callable(done, total, record) called as each point finishes.
 
@@ -370,11 +370,11 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
 
     Returns the table of all points (also the resumed ones), as :func:`load_sweep`.
     """
-    from . import __version__
-    from .provenance import git_hash
-    from .scene import scene_to_dict
-    from .poincare import _check_count, _load
-    from .progress import progress_bar, split_progress
+    from nld.version import __version__
+    from nld.output.provenance import git_hash
+    from nld.model.scene import scene_to_dict
+    from nld.analysis.poincare import _check_count, _load
+    from nld.progress import progress_bar, split_progress
     bar_on, on_point = split_progress(progress, on_point)
     sc = _load(scene, overrides)
     raw = scene_to_dict(sc)
@@ -382,7 +382,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
         raise InputError(f"param = {param!r}: not a value of scene {sc.name!r} (a --set key such as "
                          "driver.speed or joints.B.clearance)")
     if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-        from .errors import InputTypeError
+        from nld.errors import InputTypeError
         raise InputTypeError(f"values = {values!r}: must be a list or array of values (parse_values "
                              "reads 'START:STOP:NUM')")
     _check_rtol(rtol, "rtol")
@@ -394,7 +394,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     if isinstance(observables, str):
         observables = [o.strip() for o in observables.split(",") if o.strip()]
     lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
-    from .lyapunov import ESTIMATORS
+    from nld.analysis.lyapunov import ESTIMATORS
     if lyapunov_estimator not in ESTIMATORS:
         raise InputError(f"lyapunov_estimator = {lyapunov_estimator!r}: must be one of "
                          f"{', '.join(ESTIMATORS)}")
@@ -474,7 +474,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
 def interrupted_sweep(exc, n_done, total, outp, what="points"):
     """The :class:`nld.errors.Interrupted` of a sweep or map stopped by Ctrl-C after n_done of
     total items."""
-    from .errors import Interrupted
+    from nld.errors import Interrupted
     if outp is not None:
         # workers write each point as it finishes, before its batch comes back: count the files
         n_done = max(n_done, len(list(Path(outp).glob("point-*.parquet"))))
@@ -537,7 +537,7 @@ def run_local(run_one, run_batch, payload, warm, todo, workers, batch_size, fini
     processes (None: the CPU count; 1: in this process by ``run_one(payload, *item)``), in batches
     of ``run_batch(payload, batch)``; every spawned worker first runs ``_warm_worker(*warm)`` (loads
     the kernel once). ``finished(record)`` is called for each result as it arrives. Shared by
-    sweeps and chaos maps (nld.chaos_map)."""
+    sweeps and chaos maps (nld.analysis.chaos_map)."""
     import multiprocessing as mp
     if workers is None:
         workers = os.cpu_count() or 1
@@ -618,8 +618,8 @@ def run_dask(run_batch, payload, worker_payload, warm, todo, dask, batch_size, f
 
 def add_arguments(subparsers):
     """Add ``nld bifurcation`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from .cli import _rtol_arg
-    from .poincare import _count_arg
+    from nld.cli import _rtol_arg
+    from nld.analysis.poincare import _count_arg
     sp = subparsers.add_parser(
         "bifurcation", help="bifurcation sweep of a scene parameter (stroboscopic points)",
         description="Sweep one scene value (any --set key) and record the stroboscopic Poincaré "
@@ -663,9 +663,9 @@ def check_values(scene, overrides, keys, values, option: str) -> None:
     """InputError naming ``option`` when the scene refuses one of ``values`` for ``keys`` (the
     command line refuses a sweep whose points would fail the scene check; the API records such a
     point as 'failed' and goes on)."""
-    from .errors import SceneError
-    from .poincare import _load
-    from .scene import apply_overrides, scene_from_dict, scene_to_dict
+    from nld.errors import SceneError
+    from nld.analysis.poincare import _load
+    from nld.model.scene import apply_overrides, scene_from_dict, scene_to_dict
     sc = _load(scene, overrides)
     raw0 = scene_to_dict(sc)
     for key in keys:
@@ -693,7 +693,7 @@ def cli_bifurcation(args) -> int:
     """``nld bifurcation``: run the sweep, print one line per point and the output directory."""
     import sys
 
-    from .progress import write
+    from nld.progress import write
 
     def on_point(k, n, rec):
         per = rec["table"]["period"].iloc[0]
@@ -710,7 +710,7 @@ def cli_bifurcation(args) -> int:
                progress=args.progress, on_point=on_point)
     pts = df.drop_duplicates(["direction", "index"])
     n_failed = int((pts["status"] != "ok").sum())
-    print(f"wrote {len(pts)} points to {args.out} (read with nld.bifurcation.load_sweep)")
+    print(f"wrote {len(pts)} points to {args.out} (read with nld.analysis.bifurcation.load_sweep)")
     if n_failed:
         print(f"nld: warning: {n_failed} of {len(pts)} points failed (status 'failed' in the table)",
               file=sys.stderr)

@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from .contact import journal_bearing_stiffness
-from .scene_model import Scene
+from nld.laws.contact import journal_bearing_stiffness
+from nld.model.scene_model import Scene
 
 
 class ParamLayout:

@@ -21,7 +21,7 @@ Each case is ``(scene, overrides, revs, rtol, method, expectation)`` plus the me
 
 ``run_case(name, quick=True)`` runs the shortened variant (``quick_revs``) that the default test run
 uses. ``run_case`` returns a :class:`CaseReport` (``passed``, the checks with values and bounds, the
-result); ``python -m nld.hard_cases [--quick] [name ...]`` prints the reports (``--list``: the cases).
+result); ``python -m nld.run.hard_cases [--quick] [name ...]`` prints the reports (``--list``: the cases).
 """
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .simulate import SimulationResult, crank_period, simulate
+from nld.run.simulate import SimulationResult, crank_period, simulate
 
 # free crank (torque mode, no motor torque), elastic Hertz contact, no friction: energy is conserved
 CONSERVATIVE = ('driver.mode="torque"', 'joints.B.contact.law="hertz"')
@@ -378,7 +378,7 @@ def run_case(name: str, *, revs: float | None = None, quick: bool = False,
 
 
 def _scene(case: HardCase):
-    from .scene import load_scene
+    from nld.model.scene import load_scene
     return load_scene(case.scene, list(case.overrides))
 
 

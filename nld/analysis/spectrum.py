@@ -35,7 +35,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from nld.errors import InputError
 
 __all__ = ["spectrum", "peaks", "table_spectrum", "scene_spectrum", "resample_uniform",
            "crank_frequency_of", "add_arguments", "cli_spectrum"]
@@ -237,11 +237,11 @@ def scene_spectrum(scene, observable: str | None = None, *, overrides=None, revs
     """Simulate ``scene`` for transient_revs + revs crank revolutions (``samples_per_rev`` output
     points per revolution: Nyquist = samples_per_rev/2 crank orders) and return
     ``(spectrum, result)`` of :func:`table_spectrum` after the transient."""
-    from .simulate import simulate
+    from nld.run.simulate import simulate
     res = simulate(scene, revs=transient_revs + revs, samples_per_rev=samples_per_rev, rtol=rtol,
                    overrides=overrides)
     if not res.success:
-        from .errors import SolveError
+        from nld.errors import SolveError
         raise SolveError(f"integration failed: {res.message}")
     return table_spectrum(res.table, observable, transient_revs=transient_revs, method=method,
                           window=window, nperseg=nperseg), res
@@ -253,8 +253,8 @@ def scene_spectrum(scene, observable: str | None = None, *, overrides=None, revs
 
 def add_arguments(subparsers):
     """Add ``nld spectrum`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from .cli import _number_arg, _rtol_arg
-    from .poincare import _count_arg
+    from nld.cli import _number_arg, _rtol_arg
+    from nld.analysis.poincare import _count_arg
     sp = subparsers.add_parser(
         "spectrum", help="frequency spectrum of a scene observable (default the contact force)",
         description="Simulate a scene (or read a run table with --table) and print the largest "
@@ -289,7 +289,7 @@ def add_arguments(subparsers):
 
 def cli_spectrum(args) -> int:
     """``nld spectrum``: print the largest peaks (and write the spectrum with --out)."""
-    from .io import check_table_path, load_table, save_table
+    from nld.output.io import check_table_path, load_table, save_table
     out = check_table_path(args.out) if args.out else None
     if args.table is not None:
         if args.scene is not None:

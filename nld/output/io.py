@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from nld.errors import InputError
 
 __all__ = ["SUFFIXES", "METADATA_KEY", "check_table_path", "sidecar_path", "save_table", "load_table",
            "provenance_json"]

@@ -1,6 +1,6 @@
 """Per-revolution maxima located from the dense output (not limited by the output sampling).
 
-    from nld.extrema import revolution_maxima
+    from nld.analysis.extrema import revolution_maxima
     run = revolution_maxima("excavator", ["rod.omega", "A.Fn"], revs=20, transient_revs=2,
                             rtol=1e-7, samples_per_rev=14400, keep_every=10)
     run.maxima          # one row per (revolution, column): sampled, detected and refined peak
@@ -9,7 +9,7 @@
 Impacts in a clearance joint last tens of microseconds; a peak read off output samples spaced a
 fraction of a millisecond apart can be far below the true one (the excavator's rod angular
 velocity: +36 % at 40x the samples). The run here integrates one crank revolution per call of the
-kernel's compiled integrator (as ``nld.simulate`` does with ``chunk_revs = 1``), keeping the
+kernel's compiled integrator (as ``nld.run.simulate`` does with ``chunk_revs = 1``), keeping the
 continuous and discrete state at every *detection* sample. In each revolution and for each
 column, the ``refine_top`` largest local maxima of the detection samples are refined:
 
@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .errors import InputError, SolveError
+from nld.errors import InputError, SolveError
 
 __all__ = ["RevolutionRun", "revolution_maxima", "window_peak", "candidates"]
 
@@ -139,10 +139,10 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     detection samples), ``peak`` (refined), ``t_peak`` (s), ``iterations`` (zoom levels, summed
     over the candidates), ``width`` (s, final window of the winning candidate), ``converged``.
     """
-    from .integrators.dopri5 import status_message
-    from .kernel import compile_scene
-    from .progress import progress_bar
-    from .simulate import check_int, crank_period, event_log_size, initial_state, tolerances
+    from nld.integrators.dopri5 import status_message
+    from nld.kernel.compile import compile_scene
+    from nld.progress import progress_bar
+    from nld.run.simulate import check_int, crank_period, event_log_size, initial_state, tolerances
     start = time.perf_counter()
     revs = check_int("revs", revs, 1)
     transient_revs = check_int("transient_revs", transient_revs, 0)
@@ -155,7 +155,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
         raise InputError(f"peak_rtol = {peak_rtol!r}: must be a number in (0, 1)")
     if isinstance(columns, str):
         columns = [columns]
-    from .scene import resolve_scene
+    from nld.model.scene import resolve_scene
     scene = resolve_scene(scene, overrides)
     kern = kernel if kernel is not None else compile_scene(scene)
     unknown = [c for c in columns if c not in kern.columns]
@@ -189,7 +189,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     n_events_logged = 0
     status, message = 0, ""
     y = np.ascontiguousarray(y, dtype=float)
-    from .interrupt import deferred
+    from nld.interrupt import deferred
     interrupted = False
     # SIGINT is deferred while the compiled integrator runs (numba's result boxing crashes on a
     # pending KeyboardInterrupt) and honoured after the revolution in progress
@@ -253,7 +253,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
             t = float(te[-1])
             bar.update(1)
     if interrupted:
-        from .simulate import INTERRUPTED
+        from nld.run.simulate import INTERRUPTED
         status, message = INTERRUPTED, f"interrupted by Ctrl-C at t = {t:.9g} s"
     elif status == 0:
         message = (f"reached t_end = {t:.9g} s ({int(st_main[1])} steps, {int(st_main[2])} rejected; "
@@ -272,7 +272,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     run = RevolutionRun(table, maxima, np.asarray(y, float), z, stats, int(status), message, float(t),
                         int(n_events_logged), time.perf_counter() - start, settings)
     if interrupted:
-        from .errors import Interrupted
+        from nld.errors import Interrupted
         done = int(maxima["rev"].max()) + 1 if len(maxima) else 0
         raise Interrupted(f"interrupted at t = {t:.9g} s", partial=run,
                           kept=f"the maxima of {done} of {revs} revolutions (Interrupted.partial)")

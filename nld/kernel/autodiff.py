@@ -2,7 +2,7 @@
 
 The tangent (variational) dynamics of a scene need the exact Jacobian-vector product of its
 kernel's right-hand side, event functions and event resets (docs/lyapunov.md). The kernel is
-straight-line scalar code written by ``nld.codegen``; this module differentiates that *source*
+straight-line scalar code written by ``nld.kernel.codegen``; this module differentiates that *source*
 statement by statement (forward mode, "tangent-linear code"), so the derivative holds exactly the
 terms the scene has and nothing else, and stays in step with the code generator by construction.
 

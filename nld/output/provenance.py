@@ -16,7 +16,7 @@ def git_hash() -> str:
     reported as '<hash> (NLD_GIT_HASH)'."""
     if os.environ.get("NLD_GIT_HASH", "").strip():
         return _from_env()
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     try:
         h = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
                            timeout=5).stdout.strip()

@@ -1,6 +1,6 @@
 """The 0-1 test for chaos (Gottwald & Melbourne 2004, 2009) on any observable series.
 
-    from nld.zero_one import zero_one_test
+    from nld.analysis.zero_one import zero_one_test
     r = zero_one_test(series)          # r.K ~ 0: regular (periodic, quasi-periodic); ~ 1: chaotic
     r.K, r.Kc, r.c                     # the median and the per-c values
 
@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
+from nld.errors import InputError
 
 __all__ = ["ZeroOneResult", "zero_one_test", "DEFAULTS"]
 
@@ -144,7 +144,7 @@ def zero_one_test(series, *, n_c: int | None = None, c_range=None, seed: int | N
       the mean. It gave K ~ 0 on the slider-crank's period-1 section, but 0.57 for white noise of
       1e-12 on 0.25. The mean-free form sees the noise or transient alone and gives K up to ~1.
       Neither form gives a reliable verdict there: declare such a series a fixed point with atol,
-      or with period_of as nld.chaos_map does. The paper form is not invariant to an offset of
+      or with period_of as nld.analysis.chaos_map does. The paper form is not invariant to an offset of
       the series; the mean-free form is, to round-off.
 
     Returns a :class:`ZeroOneResult` (K, Kc per c, c, ...).

@@ -1,7 +1,7 @@
 """Initial configuration of a scene in its minimal (tree) coordinates.
 
 The mechanism is assembled with every joint closed (clearance joints centred: journal centre on the
-bearing centre), by Newton in absolute coordinates (nld.ideal.assemble), and its velocities are the
+bearing centre), by Newton in absolute coordinates (nld.model.ideal.assemble), and its velocities are the
 ideal-joint velocities. This is the usual start of clearance-joint simulations (Flores & Ambrosio 2004).
 The absolute poses are then mapped to the tree coordinates of topology.py.
 """
@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from .scene_model import Scene
-from .topology import GROUND, Topology
+from nld.model.scene_model import Scene
+from nld.model.topology import GROUND, Topology
 
 
 def _point(scene: Scene, names, poses, vels, body: int, pname: str):
@@ -65,14 +65,14 @@ def tree_coordinates(scene: Scene, topo: Topology, poses: np.ndarray, vels: np.n
 
 def initial_coordinates(scene: Scene, topo: Topology):
     """Assembled tree coordinates q, qd at t = 0 (all joints closed, ideal velocities)."""
-    from .ideal import assemble
+    from nld.model.ideal import assemble
     poses, vels = assemble(scene, 0.0)
     return tree_coordinates(scene, topo, poses, vels)
 
 
 def constraint_jacobian_at_assembly(scene: Scene, topo: Topology) -> np.ndarray:
     """Jacobian of the loop-cut constraints w.r.t. tree coordinates, by central differences."""
-    from .ideal import assemble
+    from nld.model.ideal import assemble
     poses, vels = assemble(scene, 0.0)
     q0, _ = tree_coordinates(scene, topo, poses, vels)
     m, n = 2 * len(topo.cuts), len(topo.coords)

@@ -10,7 +10,7 @@
   located by root-finding (see the function for the accuracy of each mode).
 * :func:`period_of` -- period-n detection of a sequence of section points.
 
-Scenes are given as a :class:`~nld.scene_model.Scene`, a built-in name or a TOML path plus
+Scenes are given as a :class:`~nld.model.scene_model.Scene`, a built-in name or a TOML path plus
 ``overrides`` (as ``nld --set``); any other ODE as a :class:`nld.systems.ContinuousSystem` (a numba
 ``rhs(t, y, p, z, dy)`` integrated by ``nld.integrators.dopri5``), see :func:`stroboscopic_rhs`.
 Units: times in s, every observable in the SI unit of its table column (docs/analysis.md).
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .errors import InputError, Interrupted
+from nld.errors import InputError, Interrupted
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
@@ -46,7 +46,7 @@ class Section:
     y_final, z_final, t_final: continuous and discrete state at the end of the run (for a
              stroboscopic section: at the last section point, a multiple of the period, so a
              next run started from it at t0 = 0 continues the same trajectory).
-    status, message: as ``nld.simulate`` (status < 0: the integration failed; the table holds the
+    status, message: as ``nld.run.simulate`` (status < 0: the integration failed; the table holds the
              points reached).
     period:  sampling period T (s) of a stroboscopic section, None for a hyperplane section.
     """
@@ -83,9 +83,9 @@ def _is_system(obj) -> bool:
 
 
 def _load(scene, overrides):
-    """Scene from a Scene/name/path plus overrides (as nld.simulate does)."""
-    from .scene import resolve_scene
-    from .simulate import check_scene_arg
+    """Scene from a Scene/name/path plus overrides (as nld.run.simulate does)."""
+    from nld.model.scene import resolve_scene
+    from nld.run.simulate import check_scene_arg
     check_scene_arg(scene)
     return resolve_scene(scene, overrides)
 
@@ -154,7 +154,7 @@ def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observabl
     section are meaningful); the period-1 four-bar at 10 rad/s 1e-5 of the clearance at
     rtol 1e-8, 1e-6 at rtol 1e-10.
 
-    progress: a bar in crank revolutions (see ``nld.simulate``). Ctrl-C raises
+    progress: a bar in crank revolutions (see ``nld.run.simulate``). Ctrl-C raises
     :class:`nld.errors.Interrupted` whose ``partial`` is the Section of the points reached.
     """
     transient_revs = _check_count("transient_revs", transient_revs, 0)
@@ -162,8 +162,8 @@ def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observabl
     if _is_system(scene):
         return _stroboscopic_system(scene, transient_revs, revs, observables, rtol, y0, z0,
                                     max_steps)
-    from .kernel import compile_scene
-    from .simulate import crank_period, simulate
+    from nld.kernel.compile import compile_scene
+    from nld.run.simulate import crank_period, simulate
     sc = _load(scene, overrides)
     if sc.driver is None or sc.driver.mode != "speed":
         raise InputError(f"scene {sc.name!r}: a stroboscopic section needs a speed-driven crank "
@@ -206,7 +206,7 @@ def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observabl
 
 
 def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0, max_steps):
-    from .integrators.dopri5 import status_message
+    from nld.integrators.dopri5 import status_message
     if system.is_map:
         raise InputError(f"{system.name} is a map: iterate it, a stroboscopic section is for flows")
     if system.period is None:
@@ -242,8 +242,8 @@ def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0
 
 
 def _system_provenance(system, **extra) -> dict:
-    from . import __version__
-    from .provenance import git_hash
+    from nld.version import __version__
+    from nld.output.provenance import git_hash
     d = {"nld_version": __version__, "git_hash": git_hash(), "system": system.name,
          "parameters": system.p.tolist(), "integrator": "dopri5"}
     d.update(extra)
@@ -263,13 +263,13 @@ def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = 100, re
     which numba loads from its disk cache (see nld/integrators/dopri5.py). Example, the forced
     Duffing oscillator::
 
-        from nld.systems import duffing_rhs
+        from nld.systems.core import duffing_rhs
         sec = stroboscopic_rhs(duffing_rhs, [1, 0], [0.3, -1, 1, 0.2, 1.2], 2*pi/1.2,
                                transient_revs=200, revs=50)
 
     (``nld.systems.duffing(...)`` gives the same system with a disk-cached integrator.)
     """
-    from .systems import ContinuousSystem
+    from nld.systems.core import ContinuousSystem
     system = ContinuousSystem(rhs, y0, p, name, state_names, scales, period, solve=solve)
     return stroboscopic(system, transient_revs=transient_revs, revs=revs, observables=observables,
                         rtol=rtol, max_steps=max_steps)
@@ -290,8 +290,8 @@ class _Flow:
 
 
 def _scene_flow(scene, overrides, kernel):
-    from .kernel import compile_scene
-    from .systems import SceneSystem
+    from nld.kernel.compile import compile_scene
+    from nld.systems.core import SceneSystem
     sc = _load(scene, overrides)
     kern = kernel if kernel is not None else compile_scene(sc)
     system = SceneSystem(sc, kernel=kern)
@@ -356,7 +356,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
       observable, worse across an impact (an impact inside the bracket breaks the smoothness).
     """
     from scipy.optimize import brentq
-    from .integrators.dopri5 import status_message
+    from nld.integrators.dopri5 import status_message
     if direction not in (-1, 0, 1):
         raise InputError(f"direction = {direction!r}: must be +1, -1 or 0")
     if _is_system(scene):
@@ -368,7 +368,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
         default_obs = list(scene.state_names)
     else:
         flow, sc = _scene_flow(scene, overrides, kernel)
-        from .simulate import crank_period
+        from nld.run.simulate import crank_period
         try:
             period = crank_period(sc)
         except InputError:
@@ -409,8 +409,8 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     atol = system.tolerance(rtol)
     hmax = float(system.hmax)
     start = time.perf_counter()
-    from .interrupt import deferred
-    from .simulate import INTERRUPTED, integrate_chunked, interrupted_message
+    from nld.interrupt import deferred
+    from nld.run.simulate import INTERRUPTED, integrate_chunked, interrupted_message
     out = integrate_chunked(system.solve, 0.0, y, grid, False, system.p, z.copy(), float(rtol),
                             atol, hmax, int(max_steps), int(system.n_events), 1000,
                             period if period else math.inf, progress=progress, period=period,
@@ -510,7 +510,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
 
 
 def _scene_provenance(sc) -> dict:
-    from .simulate import provenance
+    from nld.run.simulate import provenance
     return provenance(sc)
 
 
@@ -596,7 +596,7 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
 
 def add_arguments(subparsers):
     """Add ``nld poincare`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from .cli import _number_arg, _rtol_arg
+    from nld.cli import _number_arg, _rtol_arg
     sp = subparsers.add_parser(
         "poincare", help="Poincaré section of a scene (stroboscopic or crank-angle)",
         description="Poincaré section: the observables at every crank revolution after a transient "
@@ -643,7 +643,7 @@ def _count_arg(name: str, minimum: int):
 
 def cli_poincare(args) -> int:
     """``nld poincare``: print (or write) the section points and the detected period."""
-    from .io import check_table_path, save_table
+    from nld.output.io import check_table_path, save_table
     out = check_table_path(args.out) if args.out else None
     try:
         if args.angle is None:
@@ -663,7 +663,7 @@ def cli_poincare(args) -> int:
         path = save_table(e.partial.table, out, prov)
         raise Interrupted(str(e), kept=f"wrote the partial section ({e.kept}) to {path}, marked "
                                        "partial in its provenance") from None
-    from .scene import load_scene
+    from nld.model.scene import load_scene
     n = period_of(sec.points, tol=args.period_tol,
                   scale=section_scales(load_scene(args.scene, args.overrides), sec.observables))
     prov = dict(sec.provenance)

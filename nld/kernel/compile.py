@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .codegen import columns, event_count, generate, structure_key
-from .parameters import ParamLayout, build_layout, pack
-from .scene_model import Scene
-from .topology import Topology, build_topology, partition
+from nld.version import __version__
+from nld.kernel.codegen import columns, event_count, generate, structure_key
+from nld.model.parameters import ParamLayout, build_layout, pack
+from nld.model.scene_model import Scene
+from nld.model.topology import Topology, build_topology, partition
 
 _LOADED: dict[str, object] = {}
 
@@ -54,7 +54,7 @@ class Kernel:
     @property
     def z_layout(self):
         """Where each discrete-state entry lives and the events' order (codegen.ZLayout)."""
-        from .codegen import ZLayout
+        from nld.kernel.codegen import ZLayout
         return ZLayout(self.scene, self.topo)
 
     def init_modes(self, t: float, y, p, z) -> None:
@@ -75,9 +75,10 @@ class Kernel:
 
 def kernel_dependencies() -> list[Path]:
     """The source files whose change must give a new kernel (see ``_generator_digest``)."""
-    here = Path(__file__).resolve().parent
-    files = [here / f for f in ("codegen.py", "autodiff.py", "topology.py", "parameters.py", "kernel_support.py",
-                                "contact.py", "friction.py")]
+    here = Path(__file__).resolve().parent.parent          # nld/
+    files = [here / f for f in ("kernel/codegen.py", "kernel/autodiff.py", "model/topology.py",
+                                "model/parameters.py", "kernel/support.py", "laws/contact.py",
+                                "laws/friction.py")]
     return files + sorted((here / "integrators").glob("*.py"))
 
 
@@ -128,7 +129,7 @@ def compile_scene(scene: Scene) -> Kernel:
     """Build (or fetch from cache) the kernel of a validated scene."""
     topo = build_topology(scene)
     if topo.cuts:
-        from .assembly import constraint_jacobian_at_assembly
+        from nld.model.assembly import constraint_jacobian_at_assembly
         partition(topo, constraint_jacobian_at_assembly(scene, topo))
     else:
         partition(topo, np.zeros((0, len(topo.coords))))

@@ -2,7 +2,7 @@
 
 In the style of DynamicalSystems.jl, a system is an object that carries everything an analysis
 needs (equations, parameters, initial state, per-state scales, forcing period), and every analysis
-(``nld.lyapunov`` ...) takes any system:
+(``nld.analysis.lyapunov`` ...) takes any system:
 
 * :class:`ContinuousSystem` -- an ODE ``y' = f(t, y)`` given as a numba-compiled
   ``rhs(t, y, p, z, dy)`` (writes dy in place; ``z`` is a discrete state, an empty array for a
@@ -10,9 +10,9 @@ needs (equations, parameters, initial state, per-state scales, forcing period), 
   ``on_event(k, direction, t, y, p, z) -> int``) that may change ``z``.
 * :class:`DiscreteMap` -- a map ``x_{n+1} = f(x_n)`` given as a numba-compiled ``f(x, p, out)``,
   optionally with its Jacobian ``jac(x, p, J)``.
-* :func:`SceneSystem` -- a mechanism scene compiled to its kernel (``nld.kernel``): the scene's
+* :func:`SceneSystem` -- a mechanism scene compiled to its kernel (``nld.kernel.compile``): the scene's
   rhs/events/on_event, the assembled initial state, the clearance-based state scales of
-  ``nld.simulate.state_scales`` and the crank period.
+  ``nld.run.simulate.state_scales`` and the crank period.
 * built-ins: :func:`lorenz`, :func:`duffing`, :func:`logistic`, :func:`henon`, :func:`linear`.
 
 :func:`advance` integrates a continuous system over one interval with the system's integrator
@@ -38,12 +38,12 @@ import math
 import numpy as np
 from numba import njit
 
-from .errors import InputError, SolveError
-from .integrators.dop853 import dop853
-from .integrators import method_status_message
-from .integrators.dopri5 import dopri5, no_events, no_on_event
-from .integrators.events import EVENT_SAMPLES, check_event_samples
-from .integrators.rosenbrock import rodas
+from nld.errors import InputError, SolveError
+from nld.integrators.dop853 import dop853
+from nld.integrators import method_status_message
+from nld.integrators.dopri5 import dopri5, no_events, no_on_event
+from nld.integrators.events import EVENT_SAMPLES, check_event_samples
+from nld.integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
            "lorenz", "duffing", "logistic", "henon", "linear"]
@@ -102,7 +102,7 @@ class ContinuousSystem:
     scales: per-state absolute scales (default 1): the absolute tolerance of state i is
             ``rtol * scales[i]`` and separations are measured as ||dy_i / scales[i]||.
             ``tolerance(rtol)`` gives the integrators' atol vector; a scene system overrides
-            it (``tolerance_fn``) with ``nld.simulate.tolerances`` (positions absolute).
+            it (``tolerance_fn``) with ``nld.run.simulate.tolerances`` (positions absolute).
     period: forcing period (s) of a forced system (crank period of a scene), or None.
     z0:     initial discrete state (default empty); events/on_event/n_events: as for
             ``nld.integrators.dopri5`` (default none).
@@ -121,10 +121,10 @@ class ContinuousSystem:
             on contact scenes it is slow and its exponents are not reliable: docs/lyapunov.md,
             "Tolerance-dependent exponents"). ``solve=`` must then be a wrapper of that method.
     jacobian: optional numba ``jac(t, y, p, z, J)`` writing the n x n Jacobian df/dy into J,
-            used by the tangent estimator (``nld.tangent``).
+            used by the tangent estimator (``nld.systems.tangent``).
     jvp:    where the tangent estimator takes Jacobian-vector products from when no jacobian
             is given: "auto" (default: forward differentiation of the rhs source by
-            ``nld.autodiff`` when it knows every construct, else finite differences),
+            ``nld.kernel.autodiff`` when it knows every construct, else finite differences),
             "autodiff" (refuse if it cannot), "fd" (central finite differences).
     memory: indices of the entries of z that are memory states (a contact law's approach
             velocity): part of the perturbation of the two-trajectory estimators (rescaled
@@ -489,7 +489,7 @@ _LOGISTIC, _HENON = 0, 1
 @njit(cache=True)
 def builtin_map(x, p, out):
     """The built-in maps behind one function (p = [code, parameters...]), so that the map
-    analyses compiled for it are disk-cached once for all of them (nld.lyapunov)."""
+    analyses compiled for it are disk-cached once for all of them (nld.analysis.lyapunov)."""
     if int(p[0]) == _LOGISTIC:
         logistic_f(x, p[1:], out)
     else:
@@ -527,9 +527,9 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     """A mechanism scene as a :class:`ContinuousSystem`.
 
     scene_or_name: a Scene, a built-in scene name or a TOML path; overrides as for
-    ``nld.scene.load_scene`` (``["driver.speed=50", "joints.B.clearance=1e-4"]``).
+    ``nld.model.scene.load_scene`` (``["driver.speed=50", "joints.B.clearance=1e-4"]``).
     The system uses the kernel's rhs/events/on_event and its disk-cached ``solve``; y0, z0 from
-    ``nld.simulate.initial_state``; scales from ``nld.simulate.state_scales`` (angles scaled by
+    ``nld.run.simulate.initial_state``; scales from ``nld.run.simulate.state_scales`` (angles scaled by
     clearance / lever arm, slides by the clearance, rates by those times the crank speed);
     period = crank period; hmax = period / 20 as in ``simulate``. Extra attributes: ``scene``,
     ``kernel``. method: the analyses' integrator, "dopri5" (default, whatever the scene's
@@ -539,9 +539,9 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     y0: a start state instead of the assembled one (for a scene the ideal assembly cannot place,
     e.g. a journal held off its bearing's centre); its discrete state from ``Kernel.init_modes``.
     """
-    from .kernel import compile_scene
-    from .simulate import crank_period, initial_state, state_scales, tolerances
-    from .scene import resolve_scene
+    from nld.kernel.compile import compile_scene
+    from nld.run.simulate import crank_period, initial_state, state_scales, tolerances
+    from nld.model.scene import resolve_scene
     scene = resolve_scene(scene_or_name, overrides)
     kern = kernel if kernel is not None else compile_scene(scene)
     if kern.n_state == 0:
@@ -564,7 +564,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     mod = kern.module
     solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
              "rodas": mod.solve_rodas}[_check_system_method(method)]
-    from .codegen import NEEDS_VMINUS
+    from nld.kernel.codegen import NEEDS_VMINUS
     memory = [ci for ci, jn in enumerate(kern.topo.clearance)
               if scene.joints[jn].contact.law in NEEDS_VMINUS]
     sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),

@@ -1,6 +1,6 @@
 """Chaos maps: the largest Lyapunov exponent (and the 0-1 test) over a grid of two scene parameters.
 
-    from nld.chaos_map import chaos_map, chaos_map_plot, load_chaos_map
+    from nld.analysis.chaos_map import chaos_map, chaos_map_plot, load_chaos_map
     df = chaos_map("slider_crank_olyaei", "joints.B.clearance", [1e-4, 2e-4, 5e-4],
                    "joints.B.friction.mu", [0.0, 0.05, 0.1], transient_revs=20, revs=100,
                    rtol=1e-10, out="maps/sc", resume=True)
@@ -11,27 +11,27 @@ Every grid cell (x, y) is one scene (the base scene, ``base_overrides``, then ea
 ``param_x`` set to x and each key of ``param_y`` set to y: a parameter may be a tuple of ``--set``
 keys set together, e.g. the clearances of joints A and B) and runs:
 
-1. a stroboscopic section (:func:`nld.poincare.stroboscopic`): ``transient_revs`` crank
+1. a stroboscopic section (:func:`nld.analysis.poincare.stroboscopic`): ``transient_revs`` crank
    revolutions discarded, then ``revs`` section points of ``observable`` (default: ``<J>.ex`` of
    the first clearance joint), at ``rtol``;
 2. the largest Lyapunov exponent from the end of the section (its state lies at a multiple of
    the crank period, so the trajectory is continued) over ``lyapunov_revs`` (default ``revs``)
    revolutions, at ``lyapunov_rtol`` (default ``rtol``), by ``estimator``: "tangent" (default,
-   :func:`nld.lyapunov.lyapunov_tangent`: tangent dynamics with saltation matrices at every
+   :func:`nld.analysis.lyapunov.lyapunov_tangent`: tangent dynamics with saltation matrices at every
    contact event, 2 revolutions of alignment first) or "benettin"
-   (:func:`nld.lyapunov.lyapunov_benettin`, two trajectories with separation ``d0``, default the
+   (:func:`nld.analysis.lyapunov.lyapunov_benettin`, two trajectories with separation ``d0``, default the
    Lyapunov module's 1e-4 in the scaled norm); ``seed`` sets the initial direction;
-3. the 0-1 test for chaos (:func:`nld.zero_one.zero_one_test`) of the section series: a cheap
+3. the 0-1 test for chaos (:func:`nld.analysis.zero_one.zero_one_test`) of the section series: a cheap
    second opinion from the points already computed (no extra integration). It needs ``revs`` >=
    30 (else K is NaN with a note) and is rough below a few hundred points. A section that repeats
-   to ``period_tol`` (period 1 by :func:`nld.poincare.period_of`) is a fixed point: K = 0;
+   to ``period_tol`` (period 1 by :func:`nld.analysis.poincare.period_of`) is a fixed point: K = 0;
 4. optionally (``rtol_check``) the exponent again from the same state at a second tolerance. A
    cell whose two exponents differ by more than ``CHECK_FACTOR`` x (the sum of their
    uncertainties) is "uncertain" whatever their signs: the value belongs to the integrator, not
    to the mechanism (seen with the stiff Lankarani-Nikravesh contact in permanent contact:
    docs/lyapunov.md, "Tolerance-dependent exponents").
 
-Parallel runs, files and resume reuse :mod:`nld.bifurcation`'s machinery (its point files,
+Parallel runs, files and resume reuse :mod:`nld.analysis.bifurcation`'s machinery (its point files,
 provenance checks, worker warm-up, batching and Dask client): the cells are independent points of
 a sweep whose "value" is the pair (x, y). ``workers`` local spawned processes (default the CPU
 count; 1 runs in this process) or ``dask`` (a ``distributed.Client`` or scheduler address).
@@ -63,8 +63,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import bifurcation as _bif
-from .errors import InputError
+from nld.analysis import bifurcation as _bif
+from nld.errors import InputError
 
 __all__ = ["chaos_map", "load_chaos_map", "chaos_map_plot", "param_label", "SUMMARY_COLUMNS",
            "add_arguments", "cli_chaos_map"]
@@ -74,7 +74,7 @@ SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolut
                    "uncertainty_per_revolution", "verdict", "K", "K_spread", "period", "status",
                    "message", "per_revolution_check", "uncertainty_per_revolution_check"]
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
-# settings checked on resume besides bifurcation's (nld.bifurcation._SETTINGS)
+# settings checked on resume besides bifurcation's (nld.analysis.bifurcation._SETTINGS)
 _EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check",
                    "lyapunov_integrator", "estimator")
 # exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
@@ -128,7 +128,7 @@ def param_label(keys) -> str:
 
 
 def _cell_scene(job: _Job, x, y):
-    from .scene import apply_overrides, scene_from_dict
+    from nld.model.scene import apply_overrides, scene_from_dict
     raw = copy.deepcopy(job.spec.raw)
     apply_overrides(raw, {**{k: x for k in job.keys_x}, **{k: y for k in job.keys_y}})
     return scene_from_dict(raw, job.spec.source)
@@ -154,11 +154,11 @@ def _verdict(lam, unc, status, lam_check=math.nan, unc_check=math.nan) -> str:
 
 def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     """Run one cell; never raises for a bad value or a failed run (status 'failed')."""
-    from .kernel import compile_scene
-    from .lyapunov import largest_exponent
-    from .poincare import default_observables, period_of, section_scales, stroboscopic
-    from .systems import SceneSystem
-    from .zero_one import zero_one_test
+    from nld.kernel.compile import compile_scene
+    from nld.analysis.lyapunov import largest_exponent
+    from nld.analysis.poincare import default_observables, period_of, section_scales, stroboscopic
+    from nld.systems.core import SceneSystem
+    from nld.analysis.zero_one import zero_one_test
     spec = job.spec
     start = time.perf_counter()
     notes = []
@@ -271,7 +271,7 @@ def _sections(frames) -> pd.DataFrame:
 
 def _values(v, name):
     if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
-        from .errors import InputTypeError
+        from nld.errors import InputTypeError
         raise InputTypeError(f"{name} = {v!r}: must be a list or array of numbers")
     v = v.tolist() if isinstance(v, np.ndarray) else list(v)
     if not v:
@@ -300,8 +300,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     revolution at 1e-10, but wanders over the clearance with lambda = +3.1 +- 0.6 at 1e-9 and
     +3.9 +- 1.5 at 1e-8, K ~ 1: the integration error decides the attractor there).
     lyapunov_revs (default revs), lyapunov_rtol (default rtol), seed: the exponent, from the end
-    of the section, by ``estimator`` "tangent" (default, :func:`nld.lyapunov.lyapunov_tangent`)
-    or "benettin" (:func:`nld.lyapunov.lyapunov_benettin` with separation d0, default 1e-4 in
+    of the section, by ``estimator`` "tangent" (default, :func:`nld.analysis.lyapunov.lyapunov_tangent`)
+    or "benettin" (:func:`nld.analysis.lyapunov.lyapunov_benettin` with separation d0, default 1e-4 in
     the scaled norm; d0 is refused with the tangent estimator).
     rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
     from the same state; the cell is "uncertain" unless both agree (module docstring, step 4).
@@ -313,20 +313,20 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     finite-difference Jacobian, and gave a wrong positive exponent on a period-1 orbit at rtol
     1e-5 and 1e-6; docs/lyapunov.md). The sections always use DOPRI5.
     observable: the section observable of the 0-1 test (default ``<J>.ex`` of the first clearance
-    joint); zero_one: keyword arguments of :func:`nld.zero_one.zero_one_test` (default none:
+    joint); zero_one: keyword arguments of :func:`nld.analysis.zero_one.zero_one_test` (default none:
     100 frequencies, seed 0). period_tol: a section repeating to this relative tolerance is a fixed
     point (K = 0).
-    workers, dask, batch_size, out, resume, progress, on_point: as :func:`nld.bifurcation.sweep`
+    workers, dask, batch_size, out, resume, progress, on_point: as :func:`nld.analysis.bifurcation.sweep`
     (a bar in cells; on_point(done, total, record)); Ctrl-C keeps the finished cells in ``out``
     and raises :class:`nld.errors.Interrupted`.
 
     Returns one row per cell (see the module docstring), also for resumed cells.
     """
-    from . import __version__
-    from .poincare import _check_count, _load
-    from .provenance import git_hash
-    from .scene import scene_to_dict
-    from .progress import progress_bar, split_progress
+    from nld.version import __version__
+    from nld.analysis.poincare import _check_count, _load
+    from nld.output.provenance import git_hash
+    from nld.model.scene import scene_to_dict
+    from nld.progress import progress_bar, split_progress
     bar_on, on_point = split_progress(progress, on_point)
     keys_x, keys_y = _keys(param_x, "param_x"), _keys(param_y, "param_y")
     if set(keys_x) & set(keys_y):
@@ -349,9 +349,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     if d0 is not None and not (isinstance(d0, (int, float)) and math.isfinite(d0) and d0 > 0):
         raise InputError(f"d0 = {d0!r}: must be a positive number")
     zero_one = dict(zero_one or {})
-    from .systems import _check_system_method
+    from nld.systems.core import _check_system_method
     lyapunov_method = _check_system_method(lyapunov_method, "lyapunov_method")
-    from .lyapunov import ESTIMATORS
+    from nld.analysis.lyapunov import ESTIMATORS
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator = {estimator!r}: must be one of {', '.join(ESTIMATORS)}")
     if estimator == "tangent" and lyapunov_method != "dopri5":
@@ -386,9 +386,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
                 integrator=f"dopri5 (sections), {lyapunov_method} (exponents)",
                 base_overrides=_plain_overrides(base_overrides),
-                lyapunov_method=(f"{estimator} (nld.lyapunov."
+                lyapunov_method=(f"{estimator} (nld.analysis.lyapunov."
                                  f"{'lyapunov_tangent' if estimator == 'tangent' else 'lyapunov_benettin'})"),
-                zero_one_method="Gottwald-Melbourne 2009 modified correlation (nld.zero_one)",
+                zero_one_method="Gottwald-Melbourne 2009 modified correlation (nld.analysis.zero_one)",
                 **settings)
     cells = [(iy * len(vx) + ix, ix, iy, vx[ix], vy[iy]) for iy in range(len(vy))
              for ix in range(len(vx))]
@@ -538,7 +538,7 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
     """
     from matplotlib.colors import TwoSlopeNorm
     from matplotlib.patches import Rectangle
-    from .plots import _figure, unit_of
+    from nld.output.plots import _figure, unit_of
     if value not in ("lambda", "K"):
         raise InputError(f"value = {value!r}: 'lambda' or 'K'")
     fig, ax = _figure(ax)
@@ -631,9 +631,9 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
 
 def add_arguments(subparsers):
     """Add ``nld chaos-map`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from .bifurcation import _values_arg
-    from .cli import _number_arg, _rtol_arg
-    from .poincare import _count_arg
+    from nld.analysis.bifurcation import _values_arg
+    from nld.cli import _number_arg, _rtol_arg
+    from nld.analysis.poincare import _count_arg
     sp = subparsers.add_parser(
         "chaos-map", help="largest Lyapunov exponent over a grid of two scene parameters",
         description="Two-parameter chaos map: for every cell of the grid --x-values x --y-values "
@@ -707,7 +707,7 @@ def cli_chaos_map(args) -> int:
     if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".pdf", ".svg"):
         raise InputError(f"--plot = {args.plot!r}: give a .png, .pdf or .svg file")
 
-    from .progress import write
+    from nld.progress import write
 
     def on_point(k, n, rec):
         t = rec["table"].iloc[0]
@@ -733,7 +733,7 @@ def cli_chaos_map(args) -> int:
                    out=args.out, resume=args.resume, base_overrides=args.overrides,
                    progress=args.progress, on_point=on_point)
     counts = df["verdict"].value_counts()
-    print(f"wrote {len(df)} cells to {args.out} (read with nld.chaos_map.load_chaos_map): "
+    print(f"wrote {len(df)} cells to {args.out} (read with nld.analysis.chaos_map.load_chaos_map): "
           + ", ".join(f"{counts.get(v, 0)} {v}" for v in ("chaotic", "regular", "uncertain", "failed")))
     if args.plot is not None:
         import matplotlib

@@ -12,12 +12,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .errors import InputError, InputTypeError, Interrupted, SolveError
-from .interrupt import deferred
-from .kernel import Kernel, compile_scene
-from .progress import progress_bar
-from .scene_model import Scene
-from .topology import GROUND
+from nld.errors import InputError, InputTypeError, Interrupted, SolveError
+from nld.interrupt import deferred
+from nld.kernel.compile import Kernel, compile_scene
+from nld.progress import progress_bar
+from nld.model.scene_model import Scene
+from nld.model.topology import GROUND
 
 DEFAULT_RTOL = 1e-8
 DEFAULT_SAMPLES_PER_REV = 360
@@ -184,7 +184,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
     centre that it moves (so an angle error of one scale moves the journal by about one clearance);
     a slide or a floating position by c_min (m). Velocities take the same scale times the crank speed.
     """
-    from .assembly import _point, forward_poses
+    from nld.model.assembly import _point, forward_poses
     sc, topo = kernel.scene, kernel.topo
     cl = [sc.joints[j].clearance for j in topo.clearance]
     cmin = min(cl) if cl else 1e-3
@@ -222,7 +222,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
 def initial_state(kernel: Kernel, t0: float = 0.0):
     """State y0 (independent coordinates and speeds) and discrete state z0 of the assembled scene
     (modes of switched loads, contacts and friction set from the state at t0: Kernel.init_modes)."""
-    from .assembly import initial_coordinates
+    from nld.model.assembly import initial_coordinates
     q, qd = initial_coordinates(kernel.scene, kernel.topo)
     ind = kernel.topo.independent
     y0 = np.concatenate([q[ind], qd[ind]])
@@ -287,13 +287,13 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     step is located (None: ``nld.integrators.EVENT_SAMPLES``, 3; 0: the step's ends only, nld's
     behaviour before issue 13; docs/integrator.md, "Events"). Native methods only.
     """
-    from .integrators.dopri5 import status_message
+    from nld.integrators.dopri5 import status_message
     check_scene_arg(scene)
     _check_run_args(t_end=t_end, revs=revs, samples_per_rev=samples_per_rev, t0=t0,
                     chunk_revs=chunk_revs, max_steps=max_steps, hmax=hmax)
-    from .integrators.events import EVENT_SAMPLES, check_event_samples
+    from nld.integrators.events import EVENT_SAMPLES, check_event_samples
     event_samples = EVENT_SAMPLES if event_samples is None else check_event_samples(event_samples)
-    from .scene import resolve_scene
+    from nld.model.scene import resolve_scene
     scene = resolve_scene(scene, overrides)
     if rtol is None:        # the scene's recommended tolerance (docs/performance.md), else 1e-8
         rtol = scene.rtol if scene.rtol is not None else DEFAULT_RTOL
@@ -302,7 +302,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     if not (isinstance(rtol, float | int) and 1e-14 <= rtol < 1):
         raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
     if method != "dopri5":
-        from .integrators import METHODS
+        from nld.integrators import METHODS
         if method not in METHODS:
             raise InputError(f"method = {method!r}: choose one of {', '.join(METHODS)}")
     kern = kernel if kernel is not None else compile_scene(scene)
@@ -379,7 +379,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         if method == "dopri5":
             solve = kern.module.solve
         else:
-            from .integrators import solve_method
+            from nld.integrators import solve_method
 
             def solve(*a):
                 return solve_method(kern, method, *a)
@@ -401,7 +401,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         elif method == "dopri5":
             message = status_message(status, t_reached, st)
         else:
-            from .integrators import method_status_message
+            from nld.integrators import method_status_message
             message = method_status_message(method, status, t_reached, st)
         rows = np.empty((n_out, ncols))
         with deferred() as sig:
@@ -569,9 +569,9 @@ def _failure_context(kern: Kernel, rows, n_out) -> str:
 
 def provenance(scene: Scene, kern: Kernel | None = None, **extra) -> dict:
     """Version, git hash, scene parameters and settings, stored with every saved result."""
-    from . import __version__
-    from .provenance import git_hash
-    from .scene import scene_to_dict
+    from nld.version import __version__
+    from nld.output.provenance import git_hash
+    from nld.model.scene import scene_to_dict
     d = {"nld_version": __version__, "git_hash": git_hash(), "scene": scene.name,
          "scene_parameters": scene_to_dict(scene), "integrator": "dopri5"}
     if kern is not None:

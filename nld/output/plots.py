@@ -66,7 +66,7 @@ def poincare_scatter(section, x: str | None = None, y: str | None = None, *, ax=
                      unit: str | None = None, label: str | None = None):
     """Scatter of section points, ``y`` against ``x`` (default the first two observables).
 
-    section: a :class:`nld.poincare.Section` or a table with the observable columns.
+    section: a :class:`nld.analysis.poincare.Section` or a table with the observable columns.
     scale, unit: plot x and y times ``scale`` with that unit in the labels (e.g. ``scale=1e3,
     unit="mm"`` for journal eccentricities); default SI.
     """
@@ -94,7 +94,7 @@ def bifurcation_diagram(table: pd.DataFrame, observable: str | None = None, *, p
                         ax=None, title: str | None = None, s: float = 1.5, scale: float = 1.0,
                         unit: str | None = None, param_scale: float = 1.0,
                         param_unit: str | None = None):
-    """Parameter value against the section points of one observable (a :func:`nld.bifurcation.sweep`
+    """Parameter value against the section points of one observable (a :func:`nld.analysis.bifurcation.sweep`
     or ``load_sweep`` table), coloured by direction (up: blue, down: orange); failed points are
     marked by red crosses on the lower axis. param: the swept key, for the label (default from
     ``table.attrs["provenance"]``). scale/unit, param_scale/param_unit: plot scaling and units.
@@ -133,7 +133,7 @@ def exponent_convergence(result=None, *, times=None, history=None, uncertainty=N
     """Running Lyapunov estimate(s) against averaging time, with the final estimate +- its
     uncertainty as a band.
 
-    result: a ``nld.lyapunov`` LyapunovResult / SpectrumResult (``times``, ``history``,
+    result: a ``nld.analysis.lyapunov`` LyapunovResult / SpectrumResult (``times``, ``history``,
     ``uncertainty``, ``units``, ``period``); or give times (s), history (n,) or (n, k) and
     uncertainty. per_revolution: x in revolutions and exponents per revolution (needs a period).
     """
@@ -177,10 +177,10 @@ def spectrum_plot(spec: pd.DataFrame, *, ax=None, title: str | None = None, log:
                   unit: str | None = None):
     """Power spectral density against frequency (Hz), crank harmonics marked.
 
-    spec: a :func:`nld.spectrum.spectrum` table (crank frequency in ``attrs``). Harmonic orders
+    spec: a :func:`nld.analysis.spectrum.spectrum` table (crank frequency in ``attrs``). Harmonic orders
     1, 2, ... up to ``max_order`` (or the given ``orders``) are dotted vertical lines and a top axis
     reads in orders; the x range stops at max_order (None: Nyquist). peaks: a
-    :func:`nld.spectrum.peaks` table, marked with dots. unit: the signal's unit (default from
+    :func:`nld.analysis.spectrum.peaks` table, marked with dots. unit: the signal's unit (default from
     ``attrs["observable"]``), so the density is in unit²/Hz.
     """
     a = spec.attrs

@@ -1,6 +1,6 @@
 """Multi-page PDF reports of studies (matplotlib ``PdfPages``), with their provenance.
 
-    from nld.report import Report, save_study_data
+    from nld.output.report import Report, save_study_data
 
     with Report("reports/x.pdf", "My study", scene="excavator", provenance=prov,
                 settings={"rtol": 1e-7, "revolutions": "1 transient + 3 plotted"}) as rep:
@@ -12,7 +12,7 @@
     save_study_data({"case1": df1, "case2": df2}, "reports/x.parquet", prov)
 
 Layout: every page is A4 landscape (:data:`PAGE_SIZE`); the first page(s) are the title page with
-the scene name, every scene parameter with its unit (:func:`nld.scene.format_scene`), the method,
+the scene name, every scene parameter with its unit (:func:`nld.model.scene.format_scene`), the method,
 tolerances and other settings, the nld version, the git hash, the date and the wall time. Every
 page has a footer with the report title, ``page i of N`` and the version/git hash. Pages are kept
 in memory and written when the ``with`` block ends (the title page needs the total wall time and
@@ -56,7 +56,7 @@ def study_start() -> float | None:
 
 def estimator_text(settings: dict | None, method: str | None = None, period: float | None = None) -> str:
     """One line naming the estimator of an exponent, its tolerance and averaging span, from the
-    result's ``settings`` dict (``nld.lyapunov`` results: method, rtol, transient, total,
+    result's ``settings`` dict (``nld.analysis.lyapunov`` results: method, rtol, transient, total,
     renorm_interval, d0 ...), so the text follows the estimator that actually ran. Times are
     given in crank revolutions too when ``period`` (s) is known; keys that are absent are left
     out."""
@@ -114,7 +114,7 @@ _MARGIN = 0.045
 def study_workers(default: int) -> int:
     """Worker processes of a study's sweeps: ``default`` (what the committed reports used), or
     the environment variable NLD_WORKERS (a whole number >= 1) to use a larger machine. The
-    numbers do not depend on it (nld.bifurcation: local and Dask sweeps agree point for point)."""
+    numbers do not depend on it (nld.analysis.bifurcation: local and Dask sweeps agree point for point)."""
     v = os.environ.get("NLD_WORKERS")
     if not v:
         return default
@@ -123,7 +123,7 @@ def study_workers(default: int) -> int:
     except ValueError:
         n = 0
     if n < 1:
-        from .errors import InputError
+        from nld.errors import InputError
         raise InputError(f"NLD_WORKERS = {v!r}: must be a whole number >= 1")
     return n
 
@@ -188,7 +188,7 @@ class Report:
 
     path: the PDF file (parent directories are created). title: report title (title page, footer,
     PDF Title). scene: a Scene or a scene name/path (for the parameter listing), optional.
-    provenance: dict as made by :func:`nld.simulate.provenance` (its ``integrator``, ``rtol`` and
+    provenance: dict as made by :func:`nld.run.simulate.provenance` (its ``integrator``, ``rtol`` and
     ``scene`` are shown when present), optional. settings: ``{label: value}`` shown on the title
     page (method, tolerances, revolutions, ...), optional. subtitle: a line under the title (e.g.
     "QUICK MODE"), shown in red when ``highlight_subtitle``. subject, keywords: PDF metadata.
@@ -204,7 +204,7 @@ class Report:
                  highlight_subtitle: bool = False, subject: str | None = None,
                  keywords: list[str] | None = None, wall_time: float | None = None,
                  started: float | None = None):
-        from .scene import load_scene
+        from nld.model.scene import load_scene
         self.path = Path(path)
         self.title = str(title)
         if isinstance(scene, (str, os.PathLike)):
@@ -367,8 +367,8 @@ class Report:
         return out
 
     def _info_lines(self, epoch: int | None) -> list[tuple[str, str]]:
-        from . import __version__
-        from .provenance import git_hash
+        from nld.version import __version__
+        from nld.output.provenance import git_hash
         prov = self.provenance
         rows: list[tuple[str, str]] = []
         if self.scene is not None:
@@ -396,7 +396,7 @@ class Report:
         return rows
 
     def _title_pages(self, epoch: int | None) -> list:
-        from .scene import format_scene
+        from nld.model.scene import format_scene
         info = self._info_lines(epoch)
         params = format_scene(self.scene).splitlines() if self.scene is not None else []
         # the scene's name and file are in the Run block already
@@ -459,8 +459,8 @@ class Report:
         return pages
 
     def _footer(self, fig, i: int, n: int) -> None:
-        from . import __version__
-        from .provenance import git_hash
+        from nld.version import __version__
+        from nld.output.provenance import git_hash
         y = 0.018
         fig.text(_MARGIN, y, _fit(self.title, (0.5 - _MARGIN - 0.05) * fig.get_figwidth() * 72.0, 7.5),
                  fontsize=7.5, ha="left", va="bottom", color="#444444")
@@ -470,8 +470,8 @@ class Report:
 
     def metadata(self) -> dict:
         """The PDF document information dictionary written with the report."""
-        from . import __version__
-        from .provenance import git_hash
+        from nld.version import __version__
+        from nld.output.provenance import git_hash
         kw = ["nld", f"git {git_hash()}", f"nld {__version__}"]
         scene = self.scene.name if self.scene is not None else self.provenance.get("scene")
         if scene:
@@ -481,7 +481,7 @@ class Report:
         return {"Title": self.title, "Author": "nld",
                 "Subject": self.subject or (f"nld study of scene {scene}" if scene else "nld report"),
                 "Keywords": "; ".join(kw),
-                "Creator": f"nld {__version__} (nld.report, matplotlib {matplotlib.__version__})"}
+                "Creator": f"nld {__version__} (nld.output.report, matplotlib {matplotlib.__version__})"}
 
     def close(self) -> Path:
         """Write the PDF (title page(s) first); returns its path. Called by the ``with`` block."""
@@ -519,7 +519,7 @@ def _release(fig) -> None:
 
 def save_study_data(data, path, provenance: dict | None) -> Path:
     """Write a study's time series to ``path`` (``.parquet``; a ``.pdf`` path is changed to the
-    ``.parquet`` beside it) with :func:`nld.io.save_table` and its provenance.
+    ``.parquet`` beside it) with :func:`nld.output.io.save_table` and its provenance.
 
     data: a DataFrame, or ``{case: DataFrame}``; the frames of a dict are stacked (union of the
     columns, missing values NaN) with a leading ``case`` column holding the key.
@@ -538,7 +538,7 @@ def save_study_data(data, path, provenance: dict | None) -> Path:
         df = pd.concat(frames, ignore_index=True, sort=False) if frames else pd.DataFrame({"case": []})
     else:
         df = data
-    from .io import save_table
+    from nld.output.io import save_table
     return save_table(df, p, provenance)
 
 
