@@ -145,7 +145,7 @@ def _strobo(**kw):
     return stroboscopic(args.pop("scene", "slider_crank"), **args)
 
 
-sim = nld.run.simulate
+sim = nld.simulate
 
 # (id, call, exception type, words in the message)
 API_CASES = [

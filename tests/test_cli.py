@@ -131,7 +131,7 @@ def test_simulate_ideal_matches_closed_form(tmp_path, capsys):
 
 def test_simulate_failed_integration_exits_1_and_writes(tmp_path, capsys, monkeypatch):
     import importlib
-    sim_mod = importlib.import_module("nld.run.simulate")   # the module (nld.run.simulate is the function)
+    sim_mod = importlib.import_module("nld.run.simulate")   # the module (nld.simulate is the function)
     real = sim_mod.simulate
 
     def failing(*a, **k):
@@ -307,7 +307,7 @@ def test_package_level_simulate_is_the_function():
     """``nld.simulate(...)`` as in the README, also after ``import nld.run.simulate``."""
     import importlib
     import nld.run.simulate  # noqa: F401
-    assert callable(nld.run.simulate) and nld.run.simulate is importlib.import_module("nld.run.simulate").simulate
+    assert callable(nld.simulate) and nld.simulate is importlib.import_module("nld.run.simulate").simulate
     res = nld.simulate("slider_crank", revs=0.05)
     assert res.success and len(res.table) > 10
     assert nld.load_scene("four_bar").name == "four_bar"
