@@ -1,4 +1,4 @@
-"""Contact and friction laws (nld/laws/contact.py, nld/laws/friction.py) against hand-computed values.
+"""Contact and friction laws (nld/laws/contact/*.py, nld/laws/friction.py) against hand-computed values.
 
 Reference values are written out as arithmetic with concrete numbers so that each one can be
 checked with a pocket calculator; the laws are never used to compute their own expected values.
@@ -10,16 +10,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nld.laws.contact import (
-    contact_energy,
-    flores,
-    gonthier,
-    hertz,
-    hertz_damped,
-    hunt_crossley,
-    journal_bearing_stiffness,
-    lankarani_nikravesh,
-)
+from nld.laws.contact.flores import flores
+from nld.laws.contact.gonthier import gonthier
+from nld.laws.contact.hertz import hertz
+from nld.laws.contact.hertz_damped import hertz_damped
+from nld.laws.contact.hunt_crossley import hunt_crossley
+from nld.laws.contact.lankarani_nikravesh import lankarani_nikravesh
+from nld.laws.elastic import contact_energy, journal_bearing_stiffness
 from nld.laws.friction import ambrosio, coulomb, slip_velocity, viscous
 
 # Common numbers: K = 1e10 N/m^1.5, n = 1.5, delta = 1e-5 m, ddot = 0.3 m/s, v_minus = 0.5 m/s,
@@ -331,3 +328,71 @@ def test_slip_velocity_from_contact_point_kinematics():
     de = vj - vb
     vt = slip_velocity(de[0], de[1], n[0], n[1], wj, wb, rj, rb)
     assert vt == pytest.approx(float(rel @ t), rel=1e-7)
+
+
+# ---------------------------------------------------------------- the law registry (issue 16)
+
+MY_LAW = '''
+import numba
+from nld.laws.law import ContactLaw
+
+
+@numba.njit(cache=False, inline="always")
+def {name}(delta, ddot, K, n, cr, v_minus):
+    """Lankarani-Nikravesh written again, times {scale}."""
+    if delta <= 0.0:
+        return 0.0
+    dn = delta**n
+    chi = 3.0 * (1.0 - cr * cr) * K / (4.0 * v_minus)
+    f = K * dn + chi * dn * ddot
+    return {scale} * max(f, 0.0)
+
+
+LAW = ContactLaw(name="{name}", force={name}, extra=("restitution", "v_minus"))
+'''
+
+
+def test_a_law_is_one_file(tmp_path, monkeypatch):
+    """Adding a contact law is one file: a module holding the force and LAW, registered, is picked
+    by the scene's contact.law; written as Lankarani-Nikravesh it gives LN's trajectory bit for
+    bit, and scaled by 2 it gives another one (the file's force is what runs)."""
+    import importlib
+
+    import nld
+    from nld.laws.law import contact_law, contact_laws, register
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name, scale in (("ln_again", "1.0"), ("ln_twice", "2.0")):
+        (tmp_path / f"{name}.py").write_text(MY_LAW.format(name=name, scale=scale))
+        register(importlib.import_module(name).LAW)
+    assert {"ln_again", "ln_twice"} <= set(contact_laws())
+    assert contact_law("ln_again").onset_velocity
+
+    def run(law):
+        r = nld.simulate("slider_crank", revs=0.2, rtol=1e-8, overrides={"joints.B.contact.law": law})
+        assert r.status == 0
+        return r.table[["B.ex", "B.ey", "B.Fn"]].to_numpy()
+
+    ln = run("lankarani_nikravesh")
+    assert np.array_equal(run("ln_again"), ln)
+    assert np.abs(run("ln_twice") - ln).max() > 1e-6 * np.abs(ln).max()
+
+
+def test_registry_checks_its_laws():
+    from nld.laws.contact import hertz as hertz_module
+    from nld.laws.law import ContactLaw, contact_law, contact_laws, register
+    from nld.model.scene import load_scene
+    from nld.errors import SceneError
+    assert set(contact_laws()) >= {"hertz", "hertz_damped", "lankarani_nikravesh", "hunt_crossley",
+                                   "flores", "gonthier"}
+    assert contact_law("hertz") is hertz_module.LAW and contact_law("hertz").conservative
+    assert contact_law("hertz_damped").jump_at_onset and not contact_law("hertz_damped").onset_velocity
+    with pytest.raises(ValueError, match="extra argument 'speed'"):
+        ContactLaw(name="x", force=hertz, extra=("speed",))
+    with pytest.raises(ValueError, match="needs the unclamped force"):
+        ContactLaw(name="x", force=hertz, jump_at_onset=True)
+    with pytest.raises(ValueError, match="already registered"):
+        register(ContactLaw(name="hertz", force=hertz))
+    with pytest.raises(KeyError, match="known: "):
+        contact_law("nope")
+    with pytest.raises(SceneError, match="contact.law"):
+        load_scene("slider_crank", overrides={"joints.B.contact.law": "nope"})

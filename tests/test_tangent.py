@@ -9,7 +9,7 @@ from numba import njit
 from scipy.optimize import fsolve
 
 from nld.kernel.autodiff import Registry, function_source, jvp_source
-from nld.laws.contact import lankarani_nikravesh
+from nld.laws.contact.lankarani_nikravesh import lankarani_nikravesh
 from nld.laws.friction import ambrosio
 from nld.analysis.lyapunov import lyapunov_benettin, lyapunov_tangent
 from nld.systems.core import ContinuousSystem, SceneSystem, advance, lorenz

@@ -18,10 +18,19 @@ Generated functions (all ``@njit(cache=True)``):
 """
 from __future__ import annotations
 
+from nld.laws.law import ContactLaw, contact_law, contact_laws
 from nld.model.scene_model import Scene
 from nld.model.topology import GROUND, Topology
 
-NEEDS_VMINUS = {"lankarani_nikravesh", "hunt_crossley", "flores", "gonthier"}
+
+def law_of(joint) -> ContactLaw:
+    """The registered contact law of a clearance joint (nld.laws.law)."""
+    return contact_law(joint.contact.law)
+
+
+def needs_onset_velocity(joint) -> bool:
+    """The joint's law divides by the approach velocity stored at the located onset (z[ci])."""
+    return law_of(joint).onset_velocity
 
 
 def friction_present(joint) -> bool:
@@ -80,9 +89,10 @@ class ZLayout:
             self.ev_v[ci], self.ev_f[ci] = e, e + 1
             i += 4
             e += 2
-        # hertz_damped: the zero of K d^n + C d' during restitution (the clamp at F = 0, a kink)
+        # laws with a jump at onset (hertz_damped): the zero of the unclamped force during
+        # restitution (the clamp at F = 0, a kink)
         self.clamp: list[int] = [ci for ci, jn in enumerate(topo.clearance)
-                                 if scene.joints[jn].contact.law == "hertz_damped"]
+                                 if law_of(scene.joints[jn]).jump_at_onset]
         self.sig_c, self.ev_c = {}, {}
         for ci in self.clamp:
             self.sig_c[ci], self.ev_c[ci] = i, e
@@ -118,7 +128,21 @@ def structure_key(scene: Scene, topo: Topology) -> dict:
         "loads": [(ld.type, ld.body, ld.point, ld.bodies, ld.points, ld.modulation, len(ld.table_angles))
                   for ld in scene.loads],
         "solvers": solver_fingerprint(),
+        "laws": law_fingerprint(scene, topo),
     }
+
+
+def law_fingerprint(scene: Scene, topo: Topology) -> dict:
+    """Hash of the source of each contact law the scene uses. The generator digest covers the laws
+    in nld/laws/; this covers a law registered from outside the package (nld.laws.law.register)."""
+    import hashlib
+    import inspect
+    out = {}
+    for nm in sorted({scene.joints[jn].contact.law for jn in topo.clearance}):
+        src = "".join(inspect.getsource(f.py_func if hasattr(f, "py_func") else f)
+                      for f in contact_law(nm).functions())
+        out[nm] = hashlib.sha1(src.encode()).hexdigest()[:12]
+    return out
 
 
 def solver_fingerprint() -> str:
@@ -395,7 +419,8 @@ class Emitter:
         self.ind -= 1
         if hyb:
             self.stick_row(ci, jn, coords)
-        if j.contact.law == "hertz_damped":
+        law = law_of(j)
+        if law.jump_at_onset:
             # contact is a mode (z[ci] > 0 from the located onset to the located separation): the
             # jump C*ddot0 of seed eq. 11 happens at the event, never inside a step; in contact mode
             # hertz_damped() is the smooth extension for trial points past the boundary
@@ -404,15 +429,10 @@ class Emitter:
             self.w(f"if pen{ci} > 0.0:")
         self.ind += 1
         self.w(f"K = {self.P(pre + 'contact.stiffness')}; nexp = {self.P(pre + 'contact.exponent')}")
-        law = j.contact.law
-        if law in NEEDS_VMINUS:
+        if law.onset_velocity:
             self.w(f"vm = z[{ci}] if z[{ci}] > 0.0 else {self.P(pre + 'contact.min_approach_velocity')}")
-            args = f"K, nexp, {self.P(pre + 'contact.restitution')}, vm"
-        elif law == "hertz_damped":
-            args = f"K, nexp, {self.P(pre + 'contact.damping')}"
-        else:
-            args = "K, nexp"
-        self.w(f"Fn{ci} = {law}(pen{ci}, ddot{ci}, {args})")
+        args = law_arguments(self, law, pre, "K, nexp", "vm")
+        self.w(f"Fn{ci} = {law.force.__name__}(pen{ci}, ddot{ci}, {args})")
         if fr:
             f = j.friction
             if hyb:
@@ -441,7 +461,7 @@ class Emitter:
         if observe:
             self.w(f"Vpot += contact_energy(pen{ci}, K, nexp)")
             # power of the non-conservative part of the contact (damping, friction) on the system
-            self.w(f"Pload += -(Fn{ci} - hertz(pen{ci}, 0.0, K, nexp))*ddot{ci} - Ft{ci}*vt{ci}")
+            self.w(f"Pload += -(Fn{ci} - elastic_force(pen{ci}, K, nexp))*ddot{ci} - Ft{ci}*vt{ci}")
         self.ind -= 1
 
     def stick_row(self, ci: int, jn: str, coords: list[int]):
@@ -609,12 +629,26 @@ class Emitter:
         self.w("    newton_failed = False")
 
 
-def _header() -> list[str]:
+def law_arguments(E, law: ContactLaw, pre: str, head: str, v_minus: str) -> str:
+    """The argument list of a law's force after (delta, ddot): ``head`` (K, n) and its extras."""
+    names = {"restitution": E.P(pre + "contact.restitution"), "damping": E.P(pre + "contact.damping"),
+             "v_minus": v_minus}
+    return ", ".join([head] + [names[e] for e in law.extra])
+
+
+def _law_imports(scene: Scene, topo: Topology) -> list[str]:
+    """One import line per contact law the scene uses (and nothing for the others)."""
+    laws = sorted({scene.joints[jn].contact.law for jn in topo.clearance})
+    return [f"from {f.__module__} import {f.__name__}" for nm in laws for f in contact_law(nm).functions()]
+
+
+def _header(scene: Scene, topo: Topology) -> list[str]:
     return [
         "# generated by nld.kernel.codegen: do not edit",
         "import numpy as np",
         "from numba import njit",
-        "from nld.laws.contact import hertz, hertz_damped, lankarani_nikravesh, hunt_crossley, flores, gonthier, contact_energy",
+        *_law_imports(scene, topo),
+        "from nld.laws.elastic import elastic_force, contact_energy",
         "from nld.laws.friction import coulomb, ambrosio, viscous, slip_velocity",
         "from nld.kernel.support import periodic_table",
         "from nld.integrators.dopri5 import dopri5",
@@ -641,7 +675,7 @@ def event_count(scene: Scene, topo: Topology) -> int:
 def generate(scene: Scene, topo: Topology, layout) -> str:
     """Source text of the kernel module for this scene's structure."""
     E = Emitter(scene, topo, layout)
-    out = _header()
+    out = _header(scene, topo)
     t = topo
     loops = bool(t.cuts)
     S = list(t.independent) + list(t.dependent) if loops else list(t.independent)
@@ -785,8 +819,9 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         E.w(f"ddc = ((A{ci}vx - B{ci}vx)*exc + (A{ci}vy - B{ci}vy)*eyc)/eccc if eccc > 0.0 else 0.0")
         E.w(f"pc = max(eccc - {E.P(pre + 'clearance')}, 0.0)")
         # the unclamped force: positive in contact, negative once clamped; 1 (inactive) when free
-        E.w(f"Fr{ci} = {E.P(pre + 'contact.stiffness')}*pc**{E.P(pre + 'contact.exponent')} + "
-            f"{E.P(pre + 'contact.damping')}*ddc")
+        law = law_of(j)
+        head = f"{E.P(pre + 'contact.stiffness')}, {E.P(pre + 'contact.exponent')}"
+        E.w(f"Fr{ci} = {law.unclamped.__name__}(pc, ddc, {law_arguments(E, law, pre, head, '')})")
         E.w(f"hc{ci} = Fr{ci} if z[{ci}] > 0.0 else (-Fr{ci} if z[{ci}] < 0.0 else 1.0)")
         E.w(f"g[{ZL.ev_c[ci]}] = z[{ZL.sig_c[ci]}]*hc{ci}")
     out.append("@njit(cache=True)")
@@ -896,7 +931,8 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w(f"z[{ZL.load[i]}] = 1.0 if th{b} <= {E.P(f'loads.{i}.threshold')} else -1.0")
     for ci, jn in enumerate(t.clearance):
         j = scene.joints[jn]
-        hd = j.contact.law == "hertz_damped"
+        law = law_of(j)
+        hd = law.jump_at_onset
         if not (hd or ci in ZL.mode):
             continue
         bj, bb = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
@@ -908,8 +944,9 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         if hd:
             pre = f"joints.{jn}."
             E.w(f"ddc = ((A{ci}vx - B{ci}vx)*ex + (A{ci}vy - B{ci}vy)*ey)/ecc if ecc > 0.0 else 0.0")
-            E.w(f"Frc = {E.P(pre + 'contact.stiffness')}*max(ecc - {E.P(pre + 'clearance')}, 0.0)**"
-                f"{E.P(pre + 'contact.exponent')} + {E.P(pre + 'contact.damping')}*ddc")
+            head = f"{E.P(pre + 'contact.stiffness')}, {E.P(pre + 'contact.exponent')}"
+            E.w(f"Frc = {law.unclamped.__name__}(ecc - {E.P(pre + 'clearance')}, ddc, "
+                f"{law_arguments(E, law, pre, head, '')})")
             E.w(f"z[{ci}] = 0.0 if not inc else ({E.P(pre + 'contact.min_approach_velocity')} if Frc > 0.0 "
                 f"else -{E.P(pre + 'contact.min_approach_velocity')})")
             E.w(f"z[{ZL.sig_c[ci]}] = 1.0")
@@ -1045,15 +1082,14 @@ def tangent_source(rhs_src: str, events_src: str, on_event_src: str) -> list[str
     events_jvp(t, y, p, z, g, t__d, y__d, z__d, g__d): the same for the event functions
     on_event_jvp(k, direction, t, y, p, z, t__d, y__d, z__d): the reset of z and of its tangent
     (z__d updated in place: D_t R t__d + D_y R y__d + D_z R z__d)."""
-    from nld.laws import contact
-    from nld.laws import friction
+    from nld.laws import elastic, friction
     from nld.kernel import support as kernel_support
     from nld.kernel.autodiff import Registry, function_source, jvp_source
     known = {nm: function_source(getattr(mod, nm)) for mod, names in (
-        (contact, ("hertz", "hertz_damped", "lankarani_nikravesh", "hunt_crossley", "flores",
-                   "gonthier", "contact_energy")),
+        (elastic, ("elastic_force", "contact_energy")),
         (friction, ("coulomb", "ambrosio", "viscous", "slip_velocity")),
         (kernel_support, ("periodic_table",))) for nm in names}
+    known.update({f.__name__: function_source(f) for nm in contact_laws() for f in contact_law(nm).functions()})
     reg = Registry(known, "@njit(cache=True, inline='always')")
     dec = "@njit(cache=True)"
     fns = [jvp_source(rhs_src, name="rhs_jvp", active=["t", "y", "z"], outputs=["dy"],

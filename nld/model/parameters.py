@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from nld.laws.contact import journal_bearing_stiffness
+from nld.laws.elastic import journal_bearing_stiffness
 from nld.model.scene_model import Scene
 
 

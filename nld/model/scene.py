@@ -20,7 +20,8 @@ from importlib import resources
 from pathlib import Path
 
 from nld.errors import InputError, SceneError
-from nld.model.scene_model import (CONTACT_LAWS, DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES, MODULATIONS,
+from nld.laws.law import contact_laws
+from nld.model.scene_model import (DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES, MODULATIONS,
                           Body, Contact, Driver, Friction, Joint, Load, Scene)
 
 __all__ = ["builtin_scenes", "scene_path", "load_scene", "resolve_scene", "parse_override", "apply_overrides",
@@ -669,7 +670,7 @@ def _contact(c: dict, path: str) -> Contact:
     if not 0.0 < restitution <= 1.0:
         raise SceneError(f"{path}.restitution", c.get("restitution"), "must be in (0, 1]")
     return Contact(
-        law=_choice(c, "law", path, CONTACT_LAWS, d.law),
+        law=_choice(c, "law", path, contact_laws(), d.law),
         stiffness=stiffness, young=young, poisson=poisson,
         exponent=_num(c, "exponent", path, None, d.exponent, gt=0),
         restitution=restitution,

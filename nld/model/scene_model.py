@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-CONTACT_LAWS = ("hertz", "hertz_damped", "lankarani_nikravesh", "hunt_crossley", "flores", "gonthier")
 FRICTION_LAWS = ("none", "coulomb", "ambrosio")
 JOINT_TYPES = ("revolute", "prismatic")
 DRIVER_MODES = ("speed", "torque")

@@ -564,9 +564,9 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     mod = kern.module
     solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
              "rodas": mod.solve_rodas}[_check_system_method(method)]
-    from nld.kernel.codegen import NEEDS_VMINUS
+    from nld.kernel.codegen import needs_onset_velocity
     memory = [ci for ci, jn in enumerate(kern.topo.clearance)
-              if scene.joints[jn].contact.law in NEEDS_VMINUS]
+              if needs_onset_velocity(scene.joints[jn])]
     sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
                             state_scales(kern, q), period, z0=z0, events=mod.events,
                             on_event=mod.on_event, n_events=kern.n_events, solve=solve,
