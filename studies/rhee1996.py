@@ -46,6 +46,7 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
              samples_per_rev=360, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3], workers=1)
+MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
 
 # name -> (group, overrides, clearance [m], mu)
 CASES = {
@@ -78,15 +79,9 @@ UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spre
 
 
 def verdict(lam: float, unc: float, n_points: int) -> str:
-    """'chaotic' only for lambda - uncertainty > 0 over a section of at least MIN_SECTION_POINTS
-    points; a positive exponent over a shorter section is 'λ1 > 0, short'."""
-    if not (lam == lam):
-        return "failed"
-    if lam + unc < 0:
-        return "regular"
-    if lam - unc > 0:
-        return "chaotic" if n_points >= MIN_SECTION_POINTS else "λ1 > 0, short"
-    return "uncertain"
+    """nld.study.verdict with this study's MIN_SECTION_POINTS ('chaotic' needs that many)."""
+    from nld.study import verdict as _verdict
+    return _verdict(lam, unc, n_points, MIN_SECTION_POINTS)
 
 
 def estimator_line(settings: dict, period: float | None) -> str:
@@ -496,67 +491,60 @@ def _discussion(summary, pts_c, pts_f):
 
 
 def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
-    from nld import __version__
-    from nld.output.io import save_table
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data, study_start, source_date_epoch, study_workers
-    from nld.model.scene import load_scene, scene_to_dict
+    from nld.model.scene import load_scene
     from nld.run.simulate import crank_period
-
-    start = time.perf_counter()
-    st = dict(QUICK if quick else FULL)
-    st["workers"] = study_workers(st["workers"])
-    mode = "quick" if quick else "full"
-    mode_label = "QUICK MODE: short transients and averages" if quick else "full mode"
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    pdf = out_dir / f"{STEM}.pdf"
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir)
+    st = study.settings
+    st["workers"] = study.workers(st["workers"])
     base = load_scene(SCENE)
     period = crank_period(base)
-
     res = {name: run_case(name, st) for name in CASES}
     sweeps, sweep_wall = run_sweeps(st)
     pts_c = sweep_points(sweeps["clearance"], period)
     pts_f = sweep_points(sweeps["friction"], period, clearance=base.joints["B"].clearance)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
-    wall = time.perf_counter() - start
+    wall = study.elapsed()
+    study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
+                     cases={n: {"overrides": CASES[n][1]} for n in CASES},
+                     summary=summary.to_dict(orient="records"), sweep_wall_s=sweep_wall, compute_wall_s=wall,
+                     min_section_points=MIN_SECTION_POINTS,
+                     case_estimator={n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
+                     sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
+                                      for k, v in sweeps.items()})
+    _save(study, base, res, sweeps, summary)
+    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall)
+    return study.pdf
 
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "scene": SCENE, "scene_parameters": scene_to_dict(base), "integrator": "dopri5",
-            "rtol": st["rtol"], "source": CITATION, "settings": st,
-            "cases": {n: {"overrides": CASES[n][1]} for n in CASES},
-            "summary": summary.to_dict(orient="records"), "sweep_wall_s": sweep_wall,
-            "compute_wall_s": wall, "min_section_points": MIN_SECTION_POINTS,
-            "case_estimator": {n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
-            "sweep_estimator": {k: estimator_line(sweep_estimator_settings(v, period), period)
-                                for k, v in sweeps.items()}}
-    save_study_data({n: res[n]["table"] for n in CASES}, out_dir / f"{STEM}.parquet", prov)
+
+def _save(study, base, res, sweeps, summary):
+    study.save(".parquet", {n: res[n]["table"] for n in CASES})
     # sections and sweeps with the eccentricity over the clearance (B.ex/c, B.ey/c) as plotted
-    save_study_data({n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES},
-                    out_dir / f"{STEM}_sections.parquet", prov)
-    save_study_data({"clearance": with_ec(sweeps["clearance"]).reset_index(drop=True),
-                     "friction": with_ec(sweeps["friction"], base.joints["B"].clearance).reset_index(drop=True)},
-                    out_dir / f"{STEM}_sweeps.parquet", prov)
-    save_study_data({n: pd.DataFrame(res[n]["spectrum"]) for n in CASES}, out_dir / f"{STEM}_spectra.parquet",
-                    prov)
-    shown = summary.drop(columns=["group", "status"] + (["wall_s"] if source_date_epoch() else []))
+    study.save("_sections.parquet", {n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES})
+    study.save("_sweeps.parquet", {
+        "clearance": with_ec(sweeps["clearance"]).reset_index(drop=True),
+        "friction": with_ec(sweeps["friction"], base.joints["B"].clearance).reset_index(drop=True)})
+    study.save("_spectra.parquet", {n: pd.DataFrame(res[n]["spectrum"]) for n in CASES})
+    study.save("_summary.csv", summary)
+
+
+def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
+    from nld.study import sde, timing
+    st, mode_label, prov = study.settings, study.label, study.prov
+    shown = summary.drop(columns=["group", "status"] + (["wall_s"] if sde() else []))
     shown = shown.rename(columns={"clearance_mm": "c", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
                                   "section_period": "period", "section_points": "points",
                                   "contact_fraction": "in contact",
                                   "peak_orders": "peak orders", "wall_s": "wall"})
-    save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
-
     settings = {"Mode": mode_label, "rtol": st["rtol"],
                 "Cases": f"{st['transient_revs']} transient + {st['section_revs']} section revs, λ1 over "
                          f"{st['lyap_revs']} revs, spectrum over {st['spec_revs']} revs",
                 "Sweeps": f"{len(st['clearances'])} clearances, {len(st['frictions'])} μ values; "
                           f"{st['sweep_transient']} + {st['sweep_revs']} revs, λ1 over {st['sweep_lyap']}",
-                "Compute wall time": "not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else f"{wall:.1f} s"}
-    rep = Report(pdf, TITLE, scene=base, provenance=prov, settings=settings,
-                 subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
-                 subject="Clearance size and friction vs chaos in a four-bar with a clearance joint",
-                 keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov", mode],
-                 started=min(start, study_start() or start))   # nld study: from its own start
+                "Compute wall time": timing(f"{wall:.1f} s")}
+    rep = study.report(settings, scene=base,
+                       subject="Clearance size and friction vs chaos in a four-bar with a clearance joint",
+                       keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov"])
     intro, found = _texts(summary, pts_c, pts_f, st, mode_label)
     with rep:
         rep.text_page("What this report reproduces", intro)
@@ -603,7 +591,6 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
         _fig_spectra(rep, res)
         _fig_convergence(rep, res, period)
         rep.text_page("Source vs ours: trends and why they differ", _discussion(summary, pts_c, pts_f))
-    return pdf
 
 
 if __name__ == "__main__":
