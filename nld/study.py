@@ -186,12 +186,14 @@ class Study:
     def provenance(self, scene=None, **extra) -> dict:
         """The provenance of every file the study writes (kept as :attr:`prov`): study, mode,
         nld_version, git_hash; with ``scene`` (a Scene) its name and every parameter
-        (scene, scene_parameters); then ``extra`` in its order (integrator, rtol, source,
+        (scene, scene_parameters), or only ``scene`` when it is a string; then ``extra`` in its order (integrator, rtol, source,
         settings, compute_wall_s, ...)."""
         from nld.output.provenance import git_hash
         from nld.version import __version__
         prov = {"study": self.stem, "mode": self.mode, "nld_version": __version__, "git_hash": git_hash()}
-        if scene is not None:
+        if isinstance(scene, str):
+            prov["scene"] = scene
+        elif scene is not None:
             from nld.model.scene import scene_to_dict
             prov.update(scene=scene.name, scene_parameters=scene_to_dict(scene))
         prov.update(extra)
