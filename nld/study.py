@@ -45,7 +45,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-__all__ = ["Study", "work_dir", "sde", "timing", "drop_timing", "verdict", "NOT_SHOWN", "SHORT"]
+__all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "verdict", "NOT_SHOWN", "SHORT"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
 SHORT = "λ1 > 0, short"
@@ -88,6 +88,37 @@ def work_dir(out_dir, stem: str, mode: str, name: str) -> Path:
     computed by other code are not reused)."""
     from nld.output.provenance import git_hash
     return Path(out_dir) / ".work" / f"{stem}-{mode}-{name}-{git_hash()[:12]}"
+
+def pool_map(fn, items, workers: int) -> list:
+    """``[fn(*item) for item in items]``, on ``workers`` spawned processes when > 1 and there
+    is more than one item; results in the order of ``items``.
+
+    ``fn`` is a module-level function of the study: a worker imports the study from its folder
+    by its file name (which the processes inherit on sys.path). Workers ignore SIGINT (it
+    reaches the whole process group); on Ctrl-C or an error the pool is ended at once
+    (nld.interrupt.end_pool) instead of waiting for items that may take minutes."""
+    items = list(items)
+    if workers <= 1 or len(items) <= 1:
+        return [fn(*it) for it in items]
+    import importlib
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    from nld.interrupt import end_pool, ignore_in_worker
+    src = Path(fn.__code__.co_filename).resolve()
+    if str(src.parent) not in sys.path:
+        sys.path.insert(0, str(src.parent))
+    fn = getattr(importlib.import_module(src.stem), fn.__name__)
+    ex = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn"),
+                             initializer=ignore_in_worker)
+    try:
+        futs = [ex.submit(fn, *it) for it in items]
+        res = [f.result() for f in futs]
+    except BaseException:
+        end_pool(ex)
+        raise
+    ex.shutdown(wait=True)
+    return res
 
 
 class Study:
@@ -151,36 +182,10 @@ class Study:
         from nld.progress import stage
         stage(label or self.stem, what)
 
-    def map(self, fn, items, workers: int) -> list:
-        """``[fn(*item) for item in items]``, on ``workers`` spawned processes when > 1 and there
-        is more than one item; results in the order of ``items``.
-
-        ``fn`` is a module-level function of the study: a worker imports the study from its folder
-        by its file name (which the processes inherit on sys.path). Workers ignore SIGINT (it
-        reaches the whole process group); on Ctrl-C or an error the pool is ended at once
-        (nld.interrupt.end_pool) instead of waiting for items that may take minutes."""
-        items = list(items)
-        if workers <= 1 or len(items) <= 1:
-            return [fn(*it) for it in items]
-        import importlib
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
-        from nld.interrupt import end_pool, ignore_in_worker
-        src = Path(fn.__code__.co_filename).resolve()
-        if str(src.parent) not in sys.path:
-            sys.path.insert(0, str(src.parent))
-        fn = getattr(importlib.import_module(src.stem), fn.__name__)
-        ex = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn"),
-                                 initializer=ignore_in_worker)
-        try:
-            futs = [ex.submit(fn, *it) for it in items]
-            res = [f.result() for f in futs]
-        except BaseException:
-            end_pool(ex)
-            raise
-        ex.shutdown(wait=True)
-        return res
+    @staticmethod
+    def map(fn, items, workers: int) -> list:
+        """:func:`pool_map`: ``[fn(*item) for item in items]`` on ``workers`` processes."""
+        return pool_map(fn, items, workers)
 
     # ------------------------------------------------------------------ provenance and data
     def provenance(self, scene=None, **extra) -> dict:
