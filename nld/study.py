@@ -45,7 +45,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-__all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "verdict", "NOT_SHOWN", "SHORT"]
+__all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict", "NOT_SHOWN", "SHORT"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
 SHORT = "λ1 > 0, short"
@@ -66,6 +66,21 @@ def timing(text: str) -> str:
 def drop_timing(df, *columns):
     """``df`` without ``columns`` (wall times) when SOURCE_DATE_EPOCH is set, else ``df``."""
     return df.drop(columns=list(columns)) if sde() else df
+
+
+def run_table(runs: dict, columns: dict):
+    """The "Run statistics" table: a row per run of ``runs`` ({case: run record}) with its case,
+    success, then ``columns`` ({label: key}: the record's ``key``, ``stats.KEY`` its integrator
+    statistic) and its wall time [s] (left out under SOURCE_DATE_EPOCH)."""
+    import pandas as pd
+    rows = []
+    for name, r in runs.items():
+        st = r.get("stats", {})
+        rows.append({"case": name, "success": bool(r["success"]),
+                     **{label: st.get(key[6:]) if key.startswith("stats.") else r.get(key)
+                        for label, key in columns.items()},
+                     "wall time": round(r["wall_s"], 2)})
+    return drop_timing(pd.DataFrame(rows), "wall time")
 
 
 def verdict(lam: float, unc: float, n_points: int, min_points: int, failed: bool | None = None) -> str:

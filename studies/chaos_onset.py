@@ -311,26 +311,6 @@ def _discussion(summ, maps):
     return lines
 
 
-def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
-    from nld.study import Study
-    study = Study(globals(), quick, out_dir)
-    st_all, workers = study.settings, study.workers(1 if quick else 2)
-    maps, walls = {}, {}
-    for name in MAPS:
-        maps[name], walls[name] = run_map(name, st_all[name], workers, study.work_dir(name))
-    summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
-    bnd = pd.concat([boundary(n, maps[n]) for n in MAPS], ignore_index=True)
-    wall = study.elapsed()
-    study.provenance(maps={n: {**MAPS[n], **st_all[n], "wall_s": walls[n],
-                               "chaos_map_provenance": maps[n].attrs.get("provenance", {})} for n in MAPS},
-                     summary=summ.to_dict(orient="records"), compute_wall_s=wall, workers=workers)
-    study.save(".parquet", {n: pd.DataFrame(maps[n]).reset_index(drop=True) for n in MAPS})
-    study.save("_summary.csv", summ)
-    study.save("_boundary.csv", bnd)
-    _report(study, maps, walls, summ, bnd, wall, workers)
-    return study.pdf
-
-
 def _report(study, maps, walls, summ, bnd, wall, workers):
     from nld.study import timing
     st_all, mode_label = study.settings, study.label
@@ -365,6 +345,29 @@ def _report(study, maps, walls, summ, bnd, wall, workers):
         _fig_map(rep, "slider_crank", maps["slider_crank"], st_all["slider_crank"], value="K")
         _fig_map(rep, "excavator", maps["excavator"], st_all["excavator"])
         rep.text_page("Sources vs ours: trends and why they differ", _discussion(summ, maps))
+
+
+# ----------------------------------------------------------------------------------------- main
+
+
+def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir)
+    st_all, workers = study.settings, study.workers(1 if quick else 2)
+    maps, walls = {}, {}
+    for name in MAPS:
+        maps[name], walls[name] = run_map(name, st_all[name], workers, study.work_dir(name))
+    summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
+    bnd = pd.concat([boundary(n, maps[n]) for n in MAPS], ignore_index=True)
+    wall = study.elapsed()
+    study.provenance(maps={n: {**MAPS[n], **st_all[n], "wall_s": walls[n],
+                               "chaos_map_provenance": maps[n].attrs.get("provenance", {})} for n in MAPS},
+                     summary=summ.to_dict(orient="records"), compute_wall_s=wall, workers=workers)
+    study.save(".parquet", {n: pd.DataFrame(maps[n]).reset_index(drop=True) for n in MAPS})
+    study.save("_summary.csv", summ)
+    study.save("_boundary.csv", bnd)
+    _report(study, maps, walls, summ, bnd, wall, workers)
+    return study.pdf
 
 
 if __name__ == "__main__":

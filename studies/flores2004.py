@@ -52,6 +52,10 @@ BENCHMARK_CLEARANCE = 0.5e-3                      # m
 CLEARANCES = [0.1e-3, 0.25e-3, 0.5e-3]            # m, the clearance-size study
 MODE_LABELS = {"quick": "QUICK MODE: 2 + 2 revolutions, statistics over 10, rtol 1e-8",
                "smoke": "SMOKE MODE (test only): 1 + 1 revolution, statistics over 3, rtol 1e-7"}
+# the run statistics table (nld.study.run_table): {label: key of the run record}
+RUN_COLUMNS = {"revolutions": "revolutions", "accepted steps": "stats.accepted",
+               "rejected steps": "stats.rejected", "rhs evaluations": "stats.rhs",
+               "contact events": "contact_events"}
 IMPACT_MAX_DURATION = 0.25e-3                     # s: shorter contact intervals count as impacts
 MODES = {0: "free flight", 1: "impact", 2: "continuous contact"}
 MODE_COLORS = {0: "0.55", 1: "tab:red", 2: "tab:blue"}
@@ -506,18 +510,6 @@ def _text_findings(summary, prs, tables):
     return lines, why
 
 
-def _run_table(runs):
-    rows = []
-    for name, r in runs.items():
-        st = r.get("stats", {})
-        rows.append({"case": name, "success": bool(r["success"]), "revolutions": r.get("revolutions"),
-                     "accepted steps": st.get("accepted"), "rejected steps": st.get("rejected"),
-                     "rhs evaluations": st.get("rhs"), "contact events": r.get("contact_events"),
-                     "wall time": round(r["wall_s"], 2)})
-    from nld.study import drop_timing
-    return drop_timing(pd.DataFrame(rows), "wall time")
-
-
 # ------------------------------------------------------------------------------------ main
 
 
@@ -554,7 +546,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
 
 
 def _report(study, base, period, tables, ideal, per_rev, runs, summary, prs, sim_wall, prov):
-    from nld.study import timing
+    from nld.study import run_table, timing
     settings, mode_label = study.settings, study.label
     report_settings = {
         "Mode": mode_label,
@@ -618,7 +610,7 @@ def _report(study, base, period, tables, ideal, per_rev, runs, summary, prs, sim
                          "|crank moment| M; the minimum, median and maximum of these over the revolutions, and "
                          f"the mean number of contact onsets per revolution. Every revolution in {STEM}_per_rev.csv."],
                   float_format=lambda v: f"{v:.4g}")
-        rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
+        rep.table("Run statistics", run_table(runs, RUN_COLUMNS), col_units={"wall time": "s"},
                   float_format=lambda v: f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}",
                   notes=["Integrator statistics of each case over the whole run (transient, plotted window and "
                          "statistics run; nld.run.simulate, dopri5) and wall time (left out when SOURCE_DATE_EPOCH "

@@ -71,6 +71,10 @@ QUANTITIES = {"max |rod.omega|": ("rod.omega", True, "rad/s"), "max A.Fn": ("A.F
 WORKERS = dict(full=2, quick=1, smoke=1)
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {steady_revs} revolutions, rtol {rtol:g}, short chaos analysis",
                "smoke": "SMOKE MODE (test only): {transient_revs} + {steady_revs} revolutions, rtol {rtol:g}"}
+# the run statistics table (nld.study.run_table): {label: key of the run record}
+RUN_COLUMNS = {"accepted steps": "stats.accepted", "rejected steps": "stats.rejected",
+               "rhs evaluations": "stats.rhs", "refinement steps": "stats.refinement_steps",
+               "events": "contact_events"}
 
 OMEGA1 = 15.6          # rad/s, the paper's crank speed (the scene's driver.speed)
 
@@ -1017,51 +1021,7 @@ def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
     return trends, reasons
 
 
-def _run_table(runs):
-    rows = []
-    for name, r in runs.items():
-        st = r.get("stats", {})
-        rows.append({"case": name, "success": bool(r["success"]), "accepted steps": st.get("accepted"),
-                     "rejected steps": st.get("rejected"), "rhs evaluations": st.get("rhs"),
-                     "refinement steps": st.get("refinement_steps"),
-                     "events": r.get("contact_events"), "wall time": round(r["wall_s"], 2)})
-    from nld.study import drop_timing
-    return drop_timing(pd.DataFrame(rows), "wall time")        # reproducible PDF: no timings
-
-
-# ----------------------------------------------------------------------------------------- main
-
-
-def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
-    """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
-
-    Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
-    NLD_WORKERS (nld.output.report.study_workers).
-    """
-    from nld.study import Study
-    study = Study(globals(), quick, out_dir, smoke=smoke)
-    settings, workers = study.settings, study.workers(WORKERS[study.mode])
-    base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
-    summary = summary_table(revolution_stats(maxima), ideal, ts)
-    conv = convergence_table(maxima, check, settings)
-    sim_wall = study.elapsed()
-    an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
-    secs, pts = run_analysis(an, workers=workers)
-    study.stage("force spectra", "zhang2013")
-    spectra = force_spectra(tables, ts)
-    analysis_wall = time.perf_counter() - t_an
-    study.stage("writing the data and the report", "zhang2013")
-    study.provenance(
-        scene=base, integrator="dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
-        reference="ideal joints: nld.model.ideal.ideal_solution at the same output times", paper=CITATION,
-        **settings, t_steady_from=ts, t_end=float(times[-1]), workers=workers, cases=runs,
-        summary=summary.to_dict(orient="records"), peak_convergence=conv.to_dict(orient="records"),
-        simulation_wall_s=sim_wall, analysis=an, analysis_wall_s=analysis_wall,
-        analysis_points=pts.to_dict(orient="records"))
-    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra)
-    _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
-            sim_wall, analysis_wall, workers)
-    return study.pdf
+# ----------------------------------------------------------------------------------------- output
 
 
 def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
@@ -1087,7 +1047,7 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
             sim_wall, analysis_wall, workers):
     from nld.run.simulate import crank_period
     from nld.study import sde as _sde
-    from nld.study import timing
+    from nld.study import run_table, timing
     settings, mode, mode_label = study.settings, study.mode, study.label
     period = crank_period(base)
     report_settings = {
@@ -1173,12 +1133,47 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
         _fig_bifurcation(rep, "clearance", secs, pts, an, period)
         _fig_bifurcation(rep, "friction", secs, pts, an, period)
         _fig_spectra(rep, spectra)
-        rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
+        rep.table("Run statistics", run_table(runs, RUN_COLUMNS), col_units={"wall time": "s"},
                   notes=["Integrator statistics of each case (nld.analysis.extrema.revolution_maxima: dopri5, one "
                          "kernel call per revolution; 'refinement steps' are the steps of the peak windows) "
                          "and wall time on this "
                          "machine (left out when SOURCE_DATE_EPOCH is set, for a reproducible PDF). Provenance (versions, git hash, every scene parameter, the overrides of "
                          "each case) is stored in the parquet metadata and its .json sidecar."])
+
+
+# ----------------------------------------------------------------------------------------- main
+
+
+def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
+    """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
+
+    Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
+    NLD_WORKERS (nld.output.report.study_workers).
+    """
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir, smoke=smoke)
+    settings, workers = study.settings, study.workers(WORKERS[study.mode])
+    base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
+    summary = summary_table(revolution_stats(maxima), ideal, ts)
+    conv = convergence_table(maxima, check, settings)
+    sim_wall = study.elapsed()
+    an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
+    secs, pts = run_analysis(an, workers=workers)
+    study.stage("force spectra", "zhang2013")
+    spectra = force_spectra(tables, ts)
+    analysis_wall = time.perf_counter() - t_an
+    study.stage("writing the data and the report", "zhang2013")
+    study.provenance(
+        scene=base, integrator="dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
+        reference="ideal joints: nld.model.ideal.ideal_solution at the same output times", paper=CITATION,
+        **settings, t_steady_from=ts, t_end=float(times[-1]), workers=workers, cases=runs,
+        summary=summary.to_dict(orient="records"), peak_convergence=conv.to_dict(orient="records"),
+        simulation_wall_s=sim_wall, analysis=an, analysis_wall_s=analysis_wall,
+        analysis_points=pts.to_dict(orient="records"))
+    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra)
+    _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
+            sim_wall, analysis_wall, workers)
+    return study.pdf
 
 
 if __name__ == "__main__":
