@@ -39,6 +39,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.output.report import ec_limit
+
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
 TITLE = "Chaos in a slider-crank with a rod-slider clearance (Olyaei & Ghazavi 2012 style)"
@@ -107,10 +109,6 @@ SHORT = "λ1 > 0, short"
 EC_LIM = 1.15
 
 
-def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes (nld.output.report.ec_limit with this study's EC_LIM)."""
-    from nld.output.report import ec_limit
-    return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
@@ -423,7 +421,7 @@ def _fig_states(rep, states):
         hi += [float(np.nanmax(h)) if h.size else f, f + u]
     pad = 0.08 * max(max(hi) - min(lo), 1.0)
     th = np.linspace(0, 2 * np.pi, 300)
-    lim = ec_lim(*[with_ec(states[k]["section"].table, states[k]["clearance"]) for k in names])
+    lim = ec_limit(*[with_ec(states[k]["section"].table, states[k]["clearance"]) for k in names], floor=EC_LIM)
     with rep.style():
         fig, axes = rep.subplots(2, len(names), squeeze=False,
                                  title="Poincaré maps (once per crank revolution) of a regular and a "
@@ -884,7 +882,7 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
                          + " | ".join(dict.fromkeys(prov["sweep_estimator"].values())) + "."],
                   float_format=lambda v: f"{v:.4g}")
         ylim = lam_ylim(points)
-        elim = ec_lim(*stacked.values())
+        elim = ec_limit(*stacked.values(), floor=EC_LIM)
         for name in SWEEPS:
             _fig_sweep(rep, name, sweeps[name], points[name], st, ylim, elim)
         tc = tolcheck.copy()

@@ -31,6 +31,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.output.report import ec_limit
+
 SCENE = "four_bar"
 STEM = "rhee1996"
 TITLE = "Four-bar with a coupler-rocker clearance: clearance size and friction vs regularity (Rhee & Akay 1996 style)"
@@ -68,10 +70,6 @@ MIN_SECTION_POINTS = 50
 EC_LIM = 1.15
 
 
-def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes (nld.output.report.ec_limit with this study's EC_LIM)."""
-    from nld.output.report import ec_limit
-    return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
                   "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
@@ -195,7 +193,7 @@ def with_ec(df: pd.DataFrame, clearance=None) -> pd.DataFrame:
 
 def _fig_sections(rep, res, period):
     th = np.linspace(0, 2 * np.pi, 200)
-    lim = ec_lim(*[with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES])
+    lim = ec_limit(*[with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES], floor=EC_LIM)
     with rep.style():
         # the same limits on every panel (set below; not shared axes, whose hidden tick labels
         # make the tight layout overlap the titles with an equal aspect)
@@ -579,8 +577,8 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
                   float_format=lambda v: f"{v:.4g}")
         _fig_sections(rep, res, period)
         ylim = lam_ylim(pts_c, pts_f)
-        elim = ec_lim(with_ec(sweeps["clearance"]),
-                      with_ec(sweeps["friction"], base.joints["B"].clearance))
+        elim = ec_limit(with_ec(sweeps["clearance"]),
+                      with_ec(sweeps["friction"], base.joints["B"].clearance), floor=EC_LIM)
         _fig_sweep(rep, sweeps["clearance"], pts_c, "clearance c [mm]",
                    "Bifurcation diagram and λ1 against the clearance (μ = 0.01)", 1e3, True, None, period,
                    ylim, elim)
