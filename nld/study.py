@@ -45,7 +45,8 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-__all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict", "NOT_SHOWN", "SHORT"]
+__all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict",
+           "NOT_SHOWN", "SHORT"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
 SHORT = "λ1 > 0, short"
@@ -103,6 +104,7 @@ def work_dir(out_dir, stem: str, mode: str, name: str) -> Path:
     computed by other code are not reused)."""
     from nld.output.provenance import git_hash
     return Path(out_dir) / ".work" / f"{stem}-{mode}-{name}-{git_hash()[:12]}"
+
 
 def pool_map(fn, items, workers: int) -> list:
     """``[fn(*item) for item in items]``, on ``workers`` spawned processes when > 1 and there
@@ -206,8 +208,8 @@ class Study:
     def provenance(self, scene=None, **extra) -> dict:
         """The provenance of every file the study writes (kept as :attr:`prov`): study, mode,
         nld_version, git_hash; with ``scene`` (a Scene) its name and every parameter
-        (scene, scene_parameters), or only ``scene`` when it is a string; then ``extra`` in its order (integrator, rtol, source,
-        settings, compute_wall_s, ...)."""
+        (scene, scene_parameters), or only ``scene`` when it is a string; then ``extra`` in its
+        order (integrator, rtol, source, settings, compute_wall_s, ...)."""
         from nld.output.provenance import git_hash
         from nld.version import __version__
         prov = {"study": self.stem, "mode": self.mode, "nld_version": __version__, "git_hash": git_hash()}
