@@ -62,6 +62,7 @@ QUICK = {
                       transient_revs=0, revs=1, lyapunov_revs=2, rtol=1e-5, d0=None, rtol_check=None),
 }
 MAPS = {"slider_crank": SC, "excavator": EX}
+MODE_LABELS = {"quick": "QUICK MODE: 3 x 3 (slider-crank) and 2 x 2 (excavator) cells, very short runs"}
 
 
 # what `nld study chaos_onset` keeps when interrupted (Ctrl-C): said in its one-line message
@@ -72,10 +73,9 @@ INTERRUPT_KEEPS = ("the finished cells are kept under <out>/.work/; run the same
 def work_dir(out_dir: Path, name: str, mode: str) -> Path:
     """Where the map ``name`` keeps one parquet file per finished cell, so an interrupted study
     run again resumes instead of starting over (the full mode takes about 31 min on 2 idle
-    cores). The directory is tied to the git commit: cells computed by other code are not
-    reused."""
-    from nld.output.provenance import git_hash
-    return Path(out_dir) / ".work" / f"{STEM}-{mode}-{name}-{git_hash()[:12]}"
+    cores): nld.study.work_dir, tied to the git commit."""
+    from nld.study import work_dir as _work_dir
+    return _work_dir(out_dir, STEM, mode, name)
 
 
 def run_map(name: str, st: dict, workers: int, work: Path | None = None):
@@ -311,52 +311,21 @@ def _discussion(summ, maps):
     return lines
 
 
-def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
-    from nld import __version__
-    from nld.output.io import save_table
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data, source_date_epoch, study_workers
-
-    start = time.perf_counter()
-    st_all = QUICK if quick else FULL
-    workers = study_workers(1 if quick else 2)
-    mode = "quick" if quick else "full"
-    mode_label = "QUICK MODE: 3 x 3 (slider-crank) and 2 x 2 (excavator) cells, very short runs" if quick else "full mode"
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    pdf = out_dir / f"{STEM}.pdf"
-
-    maps, walls = {}, {}
-    for name in MAPS:
-        maps[name], walls[name] = run_map(name, st_all[name], workers, work_dir(out_dir, name, mode))
-    summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
-    bnd = pd.concat([boundary(n, maps[n]) for n in MAPS], ignore_index=True)
-    wall = time.perf_counter() - start
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "maps": {n: {**MAPS[n], **st_all[n], "wall_s": walls[n],
-                         "chaos_map_provenance": maps[n].attrs.get("provenance", {})} for n in MAPS},
-            "summary": summ.to_dict(orient="records"), "compute_wall_s": wall, "workers": workers}
-    save_study_data({n: pd.DataFrame(maps[n]).reset_index(drop=True) for n in MAPS},
-                    out_dir / f"{STEM}.parquet", prov)
-    save_table(summ, out_dir / f"{STEM}_summary.csv", prov)
-    save_table(bnd, out_dir / f"{STEM}_boundary.csv", prov)
-
+def _report(study, maps, walls, summ, bnd, wall, workers):
+    from nld.study import timing
+    st_all, mode_label = study.settings, study.label
     settings = {"Mode": mode_label, "Maps": "slider_crank_olyaei (B), excavator (A and B together)",
                 "Method": ("nld.analysis.chaos_map.chaos_map: stroboscopic section + λ1 (tangent dynamics with "
                            "saltation) + 0-1 test"),
                 "Workers": workers,
-                "Compute wall time": ("not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else
-                                      f"{wall:.1f} s (slider-crank {walls['slider_crank']:.1f} s, "
-                                      f"excavator {walls['excavator']:.1f} s)"),
-                "Cell time (sum over cells)": ("not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else
-                                               ", ".join(f"{n} {float(maps[n]['wall_s'].sum()):.0f} s"
-                                                         for n in MAPS)
-                                               + " (cells finished by an interrupted earlier run are "
-                                                 "read back, not recomputed)")}
-    rep = Report(pdf, TITLE, scene=None, provenance=prov, settings=settings,
-                 subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
-                 subject="Largest Lyapunov exponent over clearance x friction, onset boundary",
-                 keywords=["clearance joint", "chaos map", "Lyapunov", "slider-crank", "excavator", mode])
+                "Compute wall time": timing(f"{wall:.1f} s (slider-crank {walls['slider_crank']:.1f} s, "
+                                            f"excavator {walls['excavator']:.1f} s)"),
+                "Cell time (sum over cells)": timing(", ".join(f"{n} {float(maps[n]['wall_s'].sum()):.0f} s"
+                                                               for n in MAPS)
+                                                     + " (cells finished by an interrupted earlier run are "
+                                                       "read back, not recomputed)")}
+    rep = study.report(settings, subject="Largest Lyapunov exponent over clearance x friction, onset boundary",
+                       keywords=["clearance joint", "chaos map", "Lyapunov", "slider-crank", "excavator"])
     intro, found = _texts(summ, bnd, maps, st_all, mode_label, walls)
     with rep:
         rep.text_page("What this report reproduces and how", intro)
@@ -376,7 +345,29 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
         _fig_map(rep, "slider_crank", maps["slider_crank"], st_all["slider_crank"], value="K")
         _fig_map(rep, "excavator", maps["excavator"], st_all["excavator"])
         rep.text_page("Sources vs ours: trends and why they differ", _discussion(summ, maps))
-    return pdf
+
+
+# ----------------------------------------------------------------------------------------- main
+
+
+def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir)
+    st_all, workers = study.settings, study.workers(1 if quick else 2)
+    maps, walls = {}, {}
+    for name in MAPS:
+        maps[name], walls[name] = run_map(name, st_all[name], workers, study.work_dir(name))
+    summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
+    bnd = pd.concat([boundary(n, maps[n]) for n in MAPS], ignore_index=True)
+    wall = study.elapsed()
+    study.provenance(maps={n: {**MAPS[n], **st_all[n], "wall_s": walls[n],
+                               "chaos_map_provenance": maps[n].attrs.get("provenance", {})} for n in MAPS},
+                     summary=summ.to_dict(orient="records"), compute_wall_s=wall, workers=workers)
+    study.save(".parquet", {n: pd.DataFrame(maps[n]).reset_index(drop=True) for n in MAPS})
+    study.save("_summary.csv", summ)
+    study.save("_boundary.csv", bnd)
+    _report(study, maps, walls, summ, bnd, wall, workers)
+    return study.pdf
 
 
 if __name__ == "__main__":

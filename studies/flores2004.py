@@ -50,6 +50,12 @@ SMOKE = dict(transient_revs=1, plotted_revs=1, stats_revs=3, rtol=1e-7, samples_
 
 BENCHMARK_CLEARANCE = 0.5e-3                      # m
 CLEARANCES = [0.1e-3, 0.25e-3, 0.5e-3]            # m, the clearance-size study
+MODE_LABELS = {"quick": "QUICK MODE: 2 + 2 revolutions, statistics over 10, rtol 1e-8",
+               "smoke": "SMOKE MODE (test only): 1 + 1 revolution, statistics over 3, rtol 1e-7"}
+# the run statistics table (nld.study.run_table): {label: key of the run record}
+RUN_COLUMNS = {"revolutions": "revolutions", "accepted steps": "stats.accepted",
+               "rejected steps": "stats.rejected", "rhs evaluations": "stats.rhs",
+               "contact events": "contact_events"}
 IMPACT_MAX_DURATION = 0.25e-3                     # s: shorter contact intervals count as impacts
 MODES = {0: "free flight", 1: "impact", 2: "continuous contact"}
 MODE_COLORS = {0: "0.55", 1: "tab:red", 2: "tab:blue"}
@@ -504,25 +510,6 @@ def _text_findings(summary, prs, tables):
     return lines, why
 
 
-def _run_table(runs):
-    rows = []
-    for name, r in runs.items():
-        st = r.get("stats", {})
-        rows.append({"case": name, "success": bool(r["success"]), "revolutions": r.get("revolutions"),
-                     "accepted steps": st.get("accepted"), "rejected steps": st.get("rejected"),
-                     "rhs evaluations": st.get("rhs"), "contact events": r.get("contact_events"),
-                     "wall time": round(r["wall_s"], 2)})
-    df = pd.DataFrame(rows)
-    if _sde():
-        df = df.drop(columns="wall time")
-    return df
-
-
-def _sde() -> bool:
-    from nld.output.report import source_date_epoch
-    return source_date_epoch() is not None
-
-
 # ------------------------------------------------------------------------------------ main
 
 
@@ -533,48 +520,34 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     revolution. Full: 3 + 2, statistics over 100, rtol 1e-9, 7200 samples per revolution. smoke
     (tests): 1 + 1, statistics over 3, rtol 1e-7, 1440 samples per revolution.
     """
-    from nld import __version__
-    from nld.output.io import save_table
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data
-    from nld.model.scene import scene_to_dict
-
-    start = time.perf_counter()
-    settings = dict(SMOKE if smoke else QUICK if quick else FULL)
-    mode = "smoke" if smoke else "quick" if quick else "full"
-    mode_label = {"full": "full mode",
-                  "quick": "QUICK MODE: 2 + 2 revolutions, statistics over 10, rtol 1e-8",
-                  "smoke": "SMOKE MODE (test only): 1 + 1 revolution, statistics over 3, rtol 1e-7"}[mode]
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    pdf_path = out_dir / f"{STEM}.pdf"
-
+    from nld.study import Study, sde
+    study = Study(globals(), quick, out_dir, smoke=smoke)
+    settings = study.settings
     base, period, tables, ideal, per_rev, runs = run_all(settings)
     summary = summary_table(tables, ideal, period, settings["plotted_revs"])
     prs = per_rev_summary(per_rev)
-    sim_wall = time.perf_counter() - start
+    sim_wall = study.elapsed()
+    bench = tables[case_name(BENCHMARK_CLEARANCE)]
+    prov = study.provenance(
+        scene=base, integrator="dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
+        reference="ideal joints: nld.model.ideal.ideal_solution at the same output times", source=CITATION,
+        **settings, clearances_m=CLEARANCES, impact_max_duration_s=IMPACT_MAX_DURATION, period_s=period,
+        plotted_window_s=[float(bench["t"].iloc[0]), float(bench["t"].iloc[-1])], cases=runs,
+        summary=summary.to_dict(orient="records"), per_revolution_summary=prs.to_dict(orient="records"),
+        columns={"mode": "0 free flight, 1 impact, 2 continuous contact",
+                 "crank_deg": "crank angle since the start of the plotted window (deg)",
+                 "B.F": "ideal twin: magnitude of the joint-B reaction (N)"},
+        **({} if sde() else {"simulation_wall_s": sim_wall}))
+    study.save(".parquet", {**tables, "ideal": ideal})
+    study.save("_summary.csv", summary)
+    study.save("_per_rev.csv", per_rev)
+    _report(study, base, period, tables, ideal, per_rev, runs, summary, prs, sim_wall, prov)
+    return study.pdf
 
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "scene": base.name, "scene_parameters": scene_to_dict(base),
-            "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
-            "reference": "ideal joints: nld.model.ideal.ideal_solution at the same output times",
-            "source": CITATION, **settings, "clearances_m": CLEARANCES,
-            "impact_max_duration_s": IMPACT_MAX_DURATION, "period_s": period,
-            "plotted_window_s": [float(tables[case_name(BENCHMARK_CLEARANCE)]["t"].iloc[0]),
-                                 float(tables[case_name(BENCHMARK_CLEARANCE)]["t"].iloc[-1])],
-            "cases": runs, "summary": summary.to_dict(orient="records"),
-            "per_revolution_summary": prs.to_dict(orient="records"),
-            "columns": {"mode": "0 free flight, 1 impact, 2 continuous contact",
-                        "crank_deg": "crank angle since the start of the plotted window (deg)",
-                        "B.F": "ideal twin: magnitude of the joint-B reaction (N)"}}
-    if not _sde():
-        prov["simulation_wall_s"] = sim_wall
-    data = dict(tables)
-    data["ideal"] = ideal
-    save_study_data(data, out_dir / f"{STEM}.parquet", prov)
-    save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
-    save_table(per_rev, out_dir / f"{STEM}_per_rev.csv", prov)
 
+def _report(study, base, period, tables, ideal, per_rev, runs, summary, prs, sim_wall, prov):
+    from nld.study import run_table, timing
+    settings, mode_label = study.settings, study.label
     report_settings = {
         "Mode": mode_label,
         "Cases": ", ".join(tables) + ", ideal",
@@ -586,12 +559,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         "Samples/rev": settings["samples_per_rev"],
         "Crank speed": f"{base.driver.speed:.6g} rad/s (5000 rpm)",
         "Impact if": f"contact < {IMPACT_MAX_DURATION * 1e3:g} ms",
-        "Simulation": f"{sim_wall:.1f} s" if not _sde() else "not shown (SOURCE_DATE_EPOCH)",
+        "Simulation": timing(f"{sim_wall:.1f} s"),
     }
-    rep = Report(pdf_path, TITLE, scene=base, provenance=prov, settings=report_settings,
-                 subtitle=("full mode" if mode == "full" else mode_label), highlight_subtitle=mode != "full",
-                 subject="The Flores slider-crank clearance benchmark repeated with nld",
-                 keywords=["clearance joint", "slider-crank", "Flores 2004", mode])
+    rep = study.report(report_settings, scene=base,
+                       subject="The Flores slider-crank clearance benchmark repeated with nld",
+                       keywords=["clearance joint", "slider-crank", "Flores 2004"])
     bench = tables[case_name(BENCHMARK_CLEARANCE)]
     with rep:
         rep.text_page("What this report repeats", _text_intro(mode_label, settings, period, base))
@@ -638,13 +610,12 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                          "|crank moment| M; the minimum, median and maximum of these over the revolutions, and "
                          f"the mean number of contact onsets per revolution. Every revolution in {STEM}_per_rev.csv."],
                   float_format=lambda v: f"{v:.4g}")
-        rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
+        rep.table("Run statistics", run_table(runs, RUN_COLUMNS), col_units={"wall time": "s"},
                   float_format=lambda v: f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}",
                   notes=["Integrator statistics of each case over the whole run (transient, plotted window and "
                          "statistics run; nld.run.simulate, dopri5) and wall time (left out when SOURCE_DATE_EPOCH "
                          "is set, for a reproducible PDF). Provenance (versions, git hash, every scene parameter, "
                          "the overrides) is in the parquet metadata and its .json sidecar."])
-    return pdf_path
 
 
 if __name__ == "__main__":

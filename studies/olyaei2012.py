@@ -39,6 +39,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.output.report import ec_limit
+
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
 TITLE = "Chaos in a slider-crank with a rod-slider clearance (Olyaei & Ghazavi 2012 style)"
@@ -61,6 +63,8 @@ QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-1
              case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10, workers=1)
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
+MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
+               "smoke": "SMOKE MODE (test only): a handful of revolutions"}
 
 OBS = ["B.ex", "B.ey"]
 # period of a section: successive points agree to PERIOD_TOL_C of the clearance (nld.analysis.poincare.period_of
@@ -105,25 +109,15 @@ SHORT = "λ1 > 0, short"
 EC_LIM = 1.15
 
 
-def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes (nld.output.report.ec_limit with this study's EC_LIM)."""
-    from nld.output.report import ec_limit
-    return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
 
 def _verdict(lam, unc, n_points):
-    """'chaotic' only for lambda - uncertainty > 0 over a section of at least MIN_SECTION_POINTS
-    points; a positive exponent over a shorter section is SHORT."""
-    if not (lam == lam):
-        return "failed"
-    if lam + unc < 0:
-        return "regular"
-    if lam - unc > 0:
-        return "chaotic" if n_points >= MIN_SECTION_POINTS else SHORT
-    return "uncertain"
+    """nld.study.verdict with this study's MIN_SECTION_POINTS (below it a positive exponent is SHORT)."""
+    from nld.study import verdict
+    return verdict(lam, unc, n_points, MIN_SECTION_POINTS)
 
 
 def _clearance(name: str, value: float) -> float:
@@ -427,7 +421,7 @@ def _fig_states(rep, states):
         hi += [float(np.nanmax(h)) if h.size else f, f + u]
     pad = 0.08 * max(max(hi) - min(lo), 1.0)
     th = np.linspace(0, 2 * np.pi, 300)
-    lim = ec_lim(*[with_ec(states[k]["section"].table, states[k]["clearance"]) for k in names])
+    lim = ec_limit(*[with_ec(states[k]["section"].table, states[k]["clearance"]) for k in names], floor=EC_LIM)
     with rep.style():
         fig, axes = rep.subplots(2, len(names), squeeze=False,
                                  title="Poincaré maps (once per crank revolution) of a regular and a "
@@ -740,15 +734,8 @@ def _run_table(walls, states, sweeps):
         if s:
             rows.append({"run": f"state {k}", "points": len(s["section"].table), "failed": int(not s["success"]),
                          "wall time": round(s["wall_s"], 1)})
-    df = pd.DataFrame(rows)
-    if _sde():
-        df = df.drop(columns="wall time")
-    return df
-
-
-def _sde() -> bool:
-    from nld.output.report import source_date_epoch
-    return source_date_epoch() is not None
+    from nld.study import drop_timing
+    return drop_timing(pd.DataFrame(rows), "wall time")
 
 
 # ----------------------------------------------------------------------------------------- main
@@ -762,31 +749,32 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     revolutions at rtol 1e-10; showcase states 100 + 300 revolutions, λ1 over 200 at rtol 1e-10.
     quick: 3 + 2 + 2 + 2 points, 10 + 12 revolutions at rtol 1e-7 (λ1 at 1e-10). smoke: fewer still.
     """
-    from nld import __version__
-    from nld.output.io import save_table
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data, study_start, study_workers
-    from nld.model.scene import load_scene, scene_to_dict
-
-    start = time.perf_counter()
-    st = dict(SMOKE if smoke else QUICK if quick else FULL)
-    st["workers"] = study_workers(st["workers"])
-    mode = "smoke" if smoke else "quick" if quick else "full"
-    mode_label = {"full": "full mode",
-                  "quick": f"QUICK MODE: {st['transient_revs']} + {st['revs']} revolutions per point, rtol "
-                           f"{st['rtol']:g}, a few points per sweep",
-                  "smoke": "SMOKE MODE (test only): a handful of revolutions"}[mode]
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    pdf_path = out_dir / f"{STEM}.pdf"
+    from nld.model.scene import load_scene
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir, smoke=smoke)
+    st = study.settings
+    st["workers"] = study.workers(st["workers"])
     base = load_scene(SCENE)
     if abs(base.joints["B"].clearance - C0) > 1e-12:
         raise RuntimeError(f"scene {SCENE}: clearance at B {base.joints['B'].clearance!r} m, the study "
                            f"assumes C0 = {C0!r} m")
-
     sweeps, walls = run_sweeps(st)
     points = {name: sweep_points(name, df) for name, df in sweeps.items()}
     summary = summary_table(points)
+    states = showcase_states(points, st, walls)
+    t_tc = time.perf_counter()
+    tolcheck = tolerance_check(points, st)
+    walls["tolerance check"] = time.perf_counter() - t_tc
+    total_wall = study.elapsed()
+    _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
+    stacked = _save(study, sweeps, points, summary, tolcheck, states)
+    _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall)
+    return study.pdf
+
+
+def showcase_states(points: dict, st: dict, walls: dict) -> dict:
+    """The regular and the chaotic showcase state ({"regular": ..., "chaotic": ...}, None where no
+    point qualifies): the chaotic candidates are tried in order until one has lambda - unc > 0."""
     reg_pt, cha_cands = pick_states(points)
     states = {"regular": None, "chaotic": None}
     t_st = time.perf_counter()
@@ -803,11 +791,12 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         if s["lyap"].per_revolution - s["lyap"].uncertainty_per_revolution > 0:
             break
     walls["showcase states"] = time.perf_counter() - t_st
-    t_tc = time.perf_counter()
-    tolcheck = tolerance_check(points, st)
-    walls["tolerance check"] = time.perf_counter() - t_tc
-    total_wall = time.perf_counter() - start
+    return states
 
+
+def _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall):
+    from nld.study import sde
+    st = study.settings
     state_rec = {k: (None if s is None else
                      {"sweep": s["point"]["sweep"], "value": float(s["point"]["value"]), "overrides": s["overrides"],
                       "lambda_per_rev": float(s["lyap"].per_revolution),
@@ -815,39 +804,44 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                       "period": s["period"], "spread_m": s["spread_m"], "success": s["success"],
                       "section_points": s["section_points"], "verdict": s["verdict"],
                       "message": s["message"], "candidates_tried": s["tried"],
-                      **({} if _sde() else {"wall_s": s["wall_s"]})})
+                      **({} if sde() else {"wall_s": s["wall_s"]})})
                  for k, s in states.items()}
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "scene": base.name, "scene_parameters": scene_to_dict(base),
-            "integrator": "dopri5 (adaptive Dormand-Prince 5(4)), nld.analysis.bifurcation.sweep / nld.analysis.lyapunov",
-            "source": CITATION, **{k: v for k, v in st.items() if k not in SETTINGS_KEY.values()},
-            "speeds_rad_s": [float(v) for v in st["speeds"]],
-            "speeds_low_mu_rad_s": [float(v) for v in st["speeds_low_mu"]],
-            "clearances_m": [float(v) for v in st["clearances"]],
-            "frictions": [float(v) for v in st["frictions"]],
-            "observables": OBS, "states": state_rec, "summary": summary.to_dict(orient="records"),
-            "min_section_points": MIN_SECTION_POINTS,
-            "sweep_estimator": {name: sweep_estimator_line(df) for name, df in sweeps.items()},
-            "tolcheck_estimator": dict(tolcheck.attrs.get("estimators", {})),
-            "state_estimator": {k: estimator_line(s["lyap"].settings, s["lyap"].period)
-                                for k, s in states.items() if s}}
-    if not _sde():
-        prov["wall_s"] = {"sweeps": walls, "total_before_report": total_wall}
+    study.provenance(
+        scene=base,
+        integrator="dopri5 (adaptive Dormand-Prince 5(4)), nld.analysis.bifurcation.sweep / nld.analysis.lyapunov",
+        source=CITATION, **{k: v for k, v in st.items() if k not in SETTINGS_KEY.values()},
+        speeds_rad_s=[float(v) for v in st["speeds"]],
+        speeds_low_mu_rad_s=[float(v) for v in st["speeds_low_mu"]],
+        clearances_m=[float(v) for v in st["clearances"]],
+        frictions=[float(v) for v in st["frictions"]],
+        observables=OBS, states=state_rec, summary=summary.to_dict(orient="records"),
+        min_section_points=MIN_SECTION_POINTS,
+        sweep_estimator={name: sweep_estimator_line(df) for name, df in sweeps.items()},
+        tolcheck_estimator=dict(tolcheck.attrs.get("estimators", {})),
+        state_estimator={k: estimator_line(s["lyap"].settings, s["lyap"].period) for k, s in states.items() if s},
+        **({} if sde() else {"wall_s": {"sweeps": walls, "total_before_report": total_wall}}))
+
+
+def _save(study, sweeps, points, summary, tolcheck, states) -> dict:
     stacked = {}
     for name, df in sweeps.items():
         # with the eccentricity over the clearance of the point (B.ex/c, B.ey/c) as plotted
         d = with_ec(df, [_clearance(name, v) for v in df["value"].astype(float)])
         d.attrs = {}
         stacked[name] = d
-    save_study_data(stacked, out_dir / f"{STEM}.parquet", prov)
-    allpts = pd.concat(points.values(), ignore_index=True)
-    save_table(allpts, out_dir / f"{STEM}_points.csv", prov)
-    save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
-    save_table(tolcheck, out_dir / f"{STEM}_tolcheck.csv", prov)
+    study.save(".parquet", stacked)
+    study.save("_points.csv", pd.concat(points.values(), ignore_index=True))
+    study.save("_summary.csv", summary)
+    study.save("_tolcheck.csv", tolcheck)
     secs = {k: with_ec(s["section"].table, s["clearance"]) for k, s in states.items() if s}
     if secs:
-        save_study_data(secs, out_dir / f"{STEM}_sections.parquet", prov)
+        study.save("_sections.parquet", secs)
+    return stacked
 
+
+def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall):
+    from nld.study import timing
+    st, mode_label, prov = study.settings, study.label, study.prov
     report_settings = {
         "Mode": mode_label,
         "Sweeps": (f"speed {len(st['speeds'])}, clearance {len(st['clearances'])}, friction "
@@ -859,13 +853,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         "Showcase states": (f"{st['case_transient']} + {st['case_revs']} rev, λ1 over {st['case_lyap_revs']} rev "
                             f"at rtol {st['case_lyap_rtol']:g}"),
         "Workers": st["workers"],
-        "Wall time (runs)": f"{total_wall:.0f} s" if not _sde() else "not shown (SOURCE_DATE_EPOCH)",
+        "Wall time (runs)": timing(f"{total_wall:.0f} s"),
     }
-    rep = Report(pdf_path, TITLE, scene=base, provenance=prov, settings=report_settings,
-                 subtitle=("full mode" if mode == "full" else mode_label), highlight_subtitle=mode != "full",
-                 subject="Chaos in the clearance slider-crank (Olyaei & Ghazavi 2012 style) with nld",
-                 keywords=["clearance joint", "slider-crank", "chaos", "Olyaei 2012", mode],
-                 started=min(start, study_start() or start))   # nld study: from its own start
+    rep = study.report(report_settings, scene=base,
+                       subject="Chaos in the clearance slider-crank (Olyaei & Ghazavi 2012 style) with nld",
+                       keywords=["clearance joint", "slider-crank", "chaos", "Olyaei 2012"])
     intro, found, onset, why = _texts(points, summary, states, st, mode_label, tolcheck)
     with rep:
         rep.text_page("What this report repeats", intro)
@@ -890,7 +882,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                          + " | ".join(dict.fromkeys(prov["sweep_estimator"].values())) + "."],
                   float_format=lambda v: f"{v:.4g}")
         ylim = lam_ylim(points)
-        elim = ec_lim(*stacked.values())
+        elim = ec_limit(*stacked.values(), floor=EC_LIM)
         for name in SWEEPS:
             _fig_sweep(rep, name, sweeps[name], points[name], st, ylim, elim)
         tc = tolcheck.copy()
@@ -919,7 +911,6 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                          f"{st['workers']} worker process(es)) and of each showcase state on this machine "
                          "(left out when SOURCE_DATE_EPOCH is set). Provenance (versions, git hash, every "
                          "scene parameter, the settings) is in the parquet metadata and its .json sidecar."])
-    return pdf_path
 
 
 if __name__ == "__main__":

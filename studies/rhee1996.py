@@ -31,6 +31,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.output.report import ec_limit
+
 SCENE = "four_bar"
 STEM = "rhee1996"
 TITLE = "Four-bar with a coupler-rocker clearance: clearance size and friction vs regularity (Rhee & Akay 1996 style)"
@@ -46,6 +48,7 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
              samples_per_rev=360, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3], workers=1)
+MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
 
 # name -> (group, overrides, clearance [m], mu)
 CASES = {
@@ -67,10 +70,6 @@ MIN_SECTION_POINTS = 50
 EC_LIM = 1.15
 
 
-def ec_lim(*tables) -> float:
-    """A common limit of the e/c axes (nld.output.report.ec_limit with this study's EC_LIM)."""
-    from nld.output.report import ec_limit
-    return ec_limit(*tables, floor=EC_LIM)
 VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
                   "uncertain": "0.5"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
@@ -78,15 +77,9 @@ UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spre
 
 
 def verdict(lam: float, unc: float, n_points: int) -> str:
-    """'chaotic' only for lambda - uncertainty > 0 over a section of at least MIN_SECTION_POINTS
-    points; a positive exponent over a shorter section is 'λ1 > 0, short'."""
-    if not (lam == lam):
-        return "failed"
-    if lam + unc < 0:
-        return "regular"
-    if lam - unc > 0:
-        return "chaotic" if n_points >= MIN_SECTION_POINTS else "λ1 > 0, short"
-    return "uncertain"
+    """nld.study.verdict with this study's MIN_SECTION_POINTS ('chaotic' needs that many)."""
+    from nld.study import verdict as _verdict
+    return _verdict(lam, unc, n_points, MIN_SECTION_POINTS)
 
 
 def estimator_line(settings: dict, period: float | None) -> str:
@@ -200,7 +193,7 @@ def with_ec(df: pd.DataFrame, clearance=None) -> pd.DataFrame:
 
 def _fig_sections(rep, res, period):
     th = np.linspace(0, 2 * np.pi, 200)
-    lim = ec_lim(*[with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES])
+    lim = ec_limit(*[with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES], floor=EC_LIM)
     with rep.style():
         # the same limits on every panel (set below; not shared axes, whose hidden tick labels
         # make the tight layout overlap the titles with an equal aspect)
@@ -496,67 +489,60 @@ def _discussion(summary, pts_c, pts_f):
 
 
 def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
-    from nld import __version__
-    from nld.output.io import save_table
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data, study_start, source_date_epoch, study_workers
-    from nld.model.scene import load_scene, scene_to_dict
+    from nld.model.scene import load_scene
     from nld.run.simulate import crank_period
-
-    start = time.perf_counter()
-    st = dict(QUICK if quick else FULL)
-    st["workers"] = study_workers(st["workers"])
-    mode = "quick" if quick else "full"
-    mode_label = "QUICK MODE: short transients and averages" if quick else "full mode"
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    pdf = out_dir / f"{STEM}.pdf"
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir)
+    st = study.settings
+    st["workers"] = study.workers(st["workers"])
     base = load_scene(SCENE)
     period = crank_period(base)
-
     res = {name: run_case(name, st) for name in CASES}
     sweeps, sweep_wall = run_sweeps(st)
     pts_c = sweep_points(sweeps["clearance"], period)
     pts_f = sweep_points(sweeps["friction"], period, clearance=base.joints["B"].clearance)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
-    wall = time.perf_counter() - start
+    wall = study.elapsed()
+    study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
+                     cases={n: {"overrides": CASES[n][1]} for n in CASES},
+                     summary=summary.to_dict(orient="records"), sweep_wall_s=sweep_wall, compute_wall_s=wall,
+                     min_section_points=MIN_SECTION_POINTS,
+                     case_estimator={n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
+                     sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
+                                      for k, v in sweeps.items()})
+    _save(study, base, res, sweeps, summary)
+    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall)
+    return study.pdf
 
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "scene": SCENE, "scene_parameters": scene_to_dict(base), "integrator": "dopri5",
-            "rtol": st["rtol"], "source": CITATION, "settings": st,
-            "cases": {n: {"overrides": CASES[n][1]} for n in CASES},
-            "summary": summary.to_dict(orient="records"), "sweep_wall_s": sweep_wall,
-            "compute_wall_s": wall, "min_section_points": MIN_SECTION_POINTS,
-            "case_estimator": {n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
-            "sweep_estimator": {k: estimator_line(sweep_estimator_settings(v, period), period)
-                                for k, v in sweeps.items()}}
-    save_study_data({n: res[n]["table"] for n in CASES}, out_dir / f"{STEM}.parquet", prov)
+
+def _save(study, base, res, sweeps, summary):
+    study.save(".parquet", {n: res[n]["table"] for n in CASES})
     # sections and sweeps with the eccentricity over the clearance (B.ex/c, B.ey/c) as plotted
-    save_study_data({n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES},
-                    out_dir / f"{STEM}_sections.parquet", prov)
-    save_study_data({"clearance": with_ec(sweeps["clearance"]).reset_index(drop=True),
-                     "friction": with_ec(sweeps["friction"], base.joints["B"].clearance).reset_index(drop=True)},
-                    out_dir / f"{STEM}_sweeps.parquet", prov)
-    save_study_data({n: pd.DataFrame(res[n]["spectrum"]) for n in CASES}, out_dir / f"{STEM}_spectra.parquet",
-                    prov)
-    shown = summary.drop(columns=["group", "status"] + (["wall_s"] if source_date_epoch() else []))
+    study.save("_sections.parquet", {n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES})
+    study.save("_sweeps.parquet", {
+        "clearance": with_ec(sweeps["clearance"]).reset_index(drop=True),
+        "friction": with_ec(sweeps["friction"], base.joints["B"].clearance).reset_index(drop=True)})
+    study.save("_spectra.parquet", {n: pd.DataFrame(res[n]["spectrum"]) for n in CASES})
+    study.save("_summary.csv", summary)
+
+
+def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
+    from nld.study import sde, timing
+    st, mode_label, prov = study.settings, study.label, study.prov
+    shown = summary.drop(columns=["group", "status"] + (["wall_s"] if sde() else []))
     shown = shown.rename(columns={"clearance_mm": "c", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
                                   "section_period": "period", "section_points": "points",
                                   "contact_fraction": "in contact",
                                   "peak_orders": "peak orders", "wall_s": "wall"})
-    save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
-
     settings = {"Mode": mode_label, "rtol": st["rtol"],
                 "Cases": f"{st['transient_revs']} transient + {st['section_revs']} section revs, λ1 over "
                          f"{st['lyap_revs']} revs, spectrum over {st['spec_revs']} revs",
                 "Sweeps": f"{len(st['clearances'])} clearances, {len(st['frictions'])} μ values; "
                           f"{st['sweep_transient']} + {st['sweep_revs']} revs, λ1 over {st['sweep_lyap']}",
-                "Compute wall time": "not shown (SOURCE_DATE_EPOCH)" if source_date_epoch() else f"{wall:.1f} s"}
-    rep = Report(pdf, TITLE, scene=base, provenance=prov, settings=settings,
-                 subtitle="full mode" if not quick else mode_label, highlight_subtitle=quick,
-                 subject="Clearance size and friction vs chaos in a four-bar with a clearance joint",
-                 keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov", mode],
-                 started=min(start, study_start() or start))   # nld study: from its own start
+                "Compute wall time": timing(f"{wall:.1f} s")}
+    rep = study.report(settings, scene=base,
+                       subject="Clearance size and friction vs chaos in a four-bar with a clearance joint",
+                       keywords=["clearance joint", "four-bar", "Rhee Akay 1996", "Lyapunov"])
     intro, found = _texts(summary, pts_c, pts_f, st, mode_label)
     with rep:
         rep.text_page("What this report reproduces", intro)
@@ -591,8 +577,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                   float_format=lambda v: f"{v:.4g}")
         _fig_sections(rep, res, period)
         ylim = lam_ylim(pts_c, pts_f)
-        elim = ec_lim(with_ec(sweeps["clearance"]),
-                      with_ec(sweeps["friction"], base.joints["B"].clearance))
+        elim = ec_limit(with_ec(sweeps["clearance"]),
+                      with_ec(sweeps["friction"], base.joints["B"].clearance), floor=EC_LIM)
         _fig_sweep(rep, sweeps["clearance"], pts_c, "clearance c [mm]",
                    "Bifurcation diagram and λ1 against the clearance (μ = 0.01)", 1e3, True, None, period,
                    ylim, elim)
@@ -603,7 +589,6 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
         _fig_spectra(rep, res)
         _fig_convergence(rep, res, period)
         rep.text_page("Source vs ours: trends and why they differ", _discussion(summary, pts_c, pts_f))
-    return pdf
 
 
 if __name__ == "__main__":

@@ -456,22 +456,38 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
          cache_dir=None) -> Path:
     """Run the study; ``cases``: a subset of CASES; ``cache_dir``: keep each case's runs there (pickle,
     keyed by case and mode) and reuse them on the next call (for resuming a long full run)."""
-    from nld import __version__
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data
-
-    settings = dict(QUICK if quick else FULL)
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir)
+    settings = study.settings
     if cases is not None:
         settings["cases"] = tuple(cases)
-    mode = "quick" if quick else "full"
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    t_start = time.perf_counter()
+    frames, infos, recs = run_cases(settings, study.mode, cache_dir, log)
+    wall = study.elapsed()
+    rec_df = recommendation_table(recs)
+    # wall time on the title page: the runs (as computed, also when resumed from cache_dir) + the report
+    study.provenance(
+        scene=", ".join(sorted({CASES[c]["scene"] for c in settings["cases"]})),
+        integrator=", ".join(settings["methods"]), reference_rtol=REF_RTOL,
+        settings={k: (list(v) if isinstance(v, tuple) else v) for k, v in settings.items()},
+        criterion=dict(journal_err_rel=REC_JOURNAL, peak_force_err=REC_FORCE, onset_err_rel=REC_ONSET),
+        cases=infos, recommended={k: {kk: (vv if not isinstance(vv, float) or vv == vv else None)
+                                      for kk, vv in v.items()} for k, v in recs.items()},
+        wall_s=wall, runs_wall_s=sum(float(i.get("wall_s", 0.0)) for i in infos.values()))
+    study.prov["pages"] = _report(study, frames, infos, recs, rec_df)
+    study.save(".parquet", frames)
+    study.save("_recommended.parquet", rec_df)
+    log(f"wrote {study.pdf} ({wall:.1f} s of runs)")
+    return study.pdf
+
+
+def run_cases(settings: dict, mode: str, cache_dir, log):
+    """({case: runs}, {case: info}, {case: recommendation}) of settings["cases"]; with ``cache_dir``
+    each case's runs are kept there and read back on the next call."""
+    import pickle
     frames, infos, recs = {}, {}, {}
     for name in settings["cases"]:
         cached = Path(cache_dir) / f"{STEM}_{mode}_{name}.pkl" if cache_dir else None
         if cached is not None and cached.is_file():
-            import pickle
             df, info = pickle.loads(cached.read_bytes())
             log(f"case {name}: runs from {cached}")
         else:
@@ -479,13 +495,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
             df, info = run_case(name, settings, log)
             info["wall_s"] = time.perf_counter() - t_case
             if cached is not None:
-                import pickle
                 cached.parent.mkdir(parents=True, exist_ok=True)
                 cached.write_bytes(pickle.dumps((df, info)))
         frames[name], infos[name] = df, info
         recs[name] = recommend(df, info)
-    wall = time.perf_counter() - t_start
+    return frames, infos, recs
 
+
+def recommendation_table(recs: dict) -> pd.DataFrame:
     rec_rows = []
     for name, r in recs.items():
         rec_rows.append({"case": name, "method": r["method"], "rtol": r["rtol"],
@@ -496,29 +513,19 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
                          "onset err / T": r.get("onset_err_rel", np.nan),
                          "best scipy meeting it": r.get("best_scipy", "none"),
                          "its CPU": r.get("best_scipy_ms", np.nan)})
-    rec_df = pd.DataFrame(rec_rows)
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "scene": ", ".join(sorted({CASES[c]["scene"] for c in settings["cases"]})),
-            "integrator": ", ".join(settings["methods"]), "reference_rtol": REF_RTOL,
-            "settings": {k: (list(v) if isinstance(v, tuple) else v) for k, v in settings.items()},
-            "criterion": dict(journal_err_rel=REC_JOURNAL, peak_force_err=REC_FORCE, onset_err_rel=REC_ONSET),
-            "cases": infos, "recommended": {k: {kk: (vv if not isinstance(vv, float) or vv == vv else None)
-                                                 for kk, vv in v.items()} for k, v in recs.items()},
-            "wall_s": wall}
+    return pd.DataFrame(rec_rows)
 
-    pdf = out_dir / f"{STEM}.pdf"
+
+def _report(study, frames, infos, recs, rec_df) -> dict:
+    """Write the PDF; returns the pages of each part."""
+    settings, mode = study.settings, study.mode
     ladder = ", ".join(f"{r:.0e}" for r in settings["ladder"])
     pages = {}
-    # wall time on the title page: the runs (as computed, also when resumed from cache_dir) + the report
-    runs_wall = sum(float(i.get("wall_s", 0.0)) for i in infos.values())
-    prov["runs_wall_s"] = runs_wall
     t_report = time.perf_counter()
-    with Report(pdf, TITLE, provenance=prov,
-                settings={"mode": mode, "cases": ", ".join(settings["cases"]),
-                          "methods": ", ".join(settings["methods"]), "rtol ladder": ladder,
-                          "reference": f"different method at rtol {REF_RTOL:g}"},
-                subtitle="QUICK MODE" if quick else None, highlight_subtitle=quick,
-                keywords=[mode, "work-precision"]) as rep:
+    with study.report({"mode": mode, "cases": ", ".join(settings["cases"]),
+                       "methods": ", ".join(settings["methods"]), "rtol ladder": ladder,
+                       "reference": f"different method at rtol {REF_RTOL:g}"},
+                      subtitle=study.label if study.quick else None, keywords=[mode, "work-precision"]) as rep:
         n0 = rep.page_count
         rep.text_page("What is measured", [
             "Work-precision diagrams: for each case and each integrator method of nld.simulate(method=...), "
@@ -575,12 +582,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, cases=None, lo
                   notes=["status < 0: failed (no window errors). n_onsets: contact onsets on the window (run / "
                          "reference). ecc_se: standard error of the reference's mean eccentricity."])
         pages["runs_table"] = rep.page_count - n0
-        rep.wall_time = runs_wall + (time.perf_counter() - t_report)
-    prov["pages"] = pages
-    save_study_data(frames, out_dir / f"{STEM}.parquet", prov)
-    save_study_data(rec_df, out_dir / f"{STEM}_recommended.parquet", prov)
-    log(f"wrote {pdf} ({wall:.1f} s of runs)")
-    return pdf
+        rep.wall_time = study.prov["runs_wall_s"] + (time.perf_counter() - t_report)
+    return pages
 
 
 if __name__ == "__main__":

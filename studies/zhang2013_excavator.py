@@ -69,6 +69,12 @@ QUANTITIES = {"max |rod.omega|": ("rod.omega", True, "rad/s"), "max A.Fn": ("A.F
 # worker processes for the cases and the chaos analysis (NLD_WORKERS overrides; the numbers do not
 # depend on it)
 WORKERS = dict(full=2, quick=1, smoke=1)
+MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {steady_revs} revolutions, rtol {rtol:g}, short chaos analysis",
+               "smoke": "SMOKE MODE (test only): {transient_revs} + {steady_revs} revolutions, rtol {rtol:g}"}
+# the run statistics table (nld.study.run_table): {label: key of the run record}
+RUN_COLUMNS = {"accepted steps": "stats.accepted", "rejected steps": "stats.rejected",
+               "rhs evaluations": "stats.rhs", "refinement steps": "stats.refinement_steps",
+               "events": "contact_events"}
 
 OMEGA1 = 15.6          # rad/s, the paper's crank speed (the scene's driver.speed)
 
@@ -125,36 +131,6 @@ IDEAL_STYLE = dict(color="black", ls="--", lw=0.9, label="ideal joints")
 # --------------------------------------------------------------------------------------- runs
 
 
-def _parallel(func_name: str, items: list, workers: int) -> list:
-    """[func(*item) for item in items], on ``workers`` spawned processes when > 1 (the study is
-    imported there as the module ``zhang2013_excavator`` from its folder, which the processes
-    inherit on sys.path). Results in the order of ``items``."""
-    if workers <= 1 or len(items) <= 1:
-        return [globals()[func_name](*it) for it in items]
-    import importlib
-    import multiprocessing as mp
-    import sys
-    from concurrent.futures import ProcessPoolExecutor
-    folder = str(Path(__file__).resolve().parent)
-    if folder not in sys.path:
-        sys.path.insert(0, folder)
-    mod = importlib.import_module(Path(__file__).stem)
-    fn = getattr(mod, func_name)
-    from nld.interrupt import end_pool, ignore_in_worker
-    # workers ignore SIGINT (it reaches the whole process group); on Ctrl-C or an error the main
-    # process ends the pool at once instead of waiting for points that may take minutes
-    ex = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn"),
-                             initializer=ignore_in_worker)
-    try:
-        futs = [ex.submit(fn, *it) for it in items]
-        res = [f.result() for f in futs]
-    except BaseException:
-        end_pool(ex)
-        raise
-    ex.shutdown(wait=True)
-    return res
-
-
 def run_case(name: str, settings: dict, scene_name: str = SCENE) -> dict:
     """One case: per-revolution maxima (nld.analysis.extrema.revolution_maxima) over the steady revolutions,
     the kept samples of the first transient + plot revolutions, and the sampling check. Returns a
@@ -200,7 +176,8 @@ def run_cases(settings: dict, scene_name: str = SCENE, workers: int = 1):
     stage("zhang2013", f"simulating {len(CASES)} cases, {settings['transient_revs']} + "
                        f"{settings['steady_revs']} revolutions each, peaks located per revolution"
                        + (f" ({workers} workers)" if workers > 1 else ""))
-    results = _parallel("run_case", [(n, settings, scene_name) for n in CASES], workers)
+    from nld.study import pool_map
+    results = pool_map(run_case, [(n, settings, scene_name) for n in CASES], workers)
     tables, runs, maxima, checks = {}, {}, [], []
     for r in results:
         tables[r["name"]] = r["table"]
@@ -362,20 +339,16 @@ def run_analysis(an: dict, scene_name: str = SCENE, workers: int = 1):
     stage("zhang2013", f"chaos analysis: {len(items)} sweep points, {an['transient_revs']} + "
                        f"{an['section_revs']} section revolutions and λ1 over {an['lyap_revs']} each"
                        + (f" ({workers} workers)" if workers > 1 else ""))
-    out = _parallel("analysis_point", items, workers)
+    from nld.study import pool_map
+    out = pool_map(analysis_point, items, workers)
     return (pd.concat([t for t, _ in out], ignore_index=True), pd.DataFrame([r for _, r in out]))
 
 
 def verdict(status: str, per: float, uper: float, n_points: int) -> str:
     """'chaotic' only for a positive exponent (lambda - uncertainty > 0) over a section of at least
     MIN_SECTION_POINTS points; a positive exponent over a shorter section is 'λ1 > 0, short'."""
-    if status != "ok":
-        return "failed"
-    if per + uper < 0:
-        return "regular"
-    if per - uper > 0:
-        return "chaotic" if n_points >= MIN_SECTION_POINTS else "λ1 > 0, short"
-    return "uncertain"
+    from nld.study import verdict as _verdict
+    return _verdict(per, uper, n_points, MIN_SECTION_POINTS, failed=status != "ok")
 
 
 def estimator_line(pts: pd.DataFrame, period: float | None) -> str:
@@ -1048,95 +1021,35 @@ def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
     return trends, reasons
 
 
-def _run_table(runs):
-    rows = []
-    for name, r in runs.items():
-        st = r.get("stats", {})
-        rows.append({"case": name, "success": bool(r["success"]), "accepted steps": st.get("accepted"),
-                     "rejected steps": st.get("rejected"), "rhs evaluations": st.get("rhs"),
-                     "refinement steps": st.get("refinement_steps"),
-                     "events": r.get("contact_events"), "wall time": round(r["wall_s"], 2)})
-    df = pd.DataFrame(rows)
-    if _sde():          # reproducible PDF: no timings
-        df = df.drop(columns="wall time")
-    return df
+# ----------------------------------------------------------------------------------------- output
 
 
-# ----------------------------------------------------------------------------------------- main
-
-
-def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
-    """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
-
-    Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
-    NLD_WORKERS (nld.output.report.study_workers).
-    """
-    from nld import __version__
-    from nld.output.io import save_table
-    from nld.output.provenance import git_hash
-    from nld.output.report import Report, save_study_data, study_workers
-    from nld.model.scene import scene_to_dict
-    from nld.run.simulate import crank_period
-    from nld.progress import stage
-
-    start = time.perf_counter()
-    settings = dict(SMOKE if smoke else QUICK if quick else FULL)
-    mode = "smoke" if smoke else "quick" if quick else "full"
-    st = settings
-    mode_label = {"full": "full mode",
-                  "quick": (f"QUICK MODE: {st['transient_revs']} + {st['steady_revs']} revolutions, rtol "
-                            f"{st['rtol']:g}, short chaos analysis"),
-                  "smoke": (f"SMOKE MODE (test only): {st['transient_revs']} + {st['steady_revs']} "
-                            f"revolutions, rtol {st['rtol']:g}")}[mode]
-    workers = study_workers(WORKERS[mode])
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    pdf_path = out_dir / f"{STEM}.pdf"
-
-    base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
-    period = crank_period(base)
-    stats = revolution_stats(maxima)
-    summary = summary_table(stats, ideal, ts)
-    conv = convergence_table(maxima, check, settings)
-    sim_wall = time.perf_counter() - start
-    an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL)
-    t_an = time.perf_counter()
-    secs, pts = run_analysis(an, workers=workers)
-    stage("zhang2013", "force spectra")
-    spectra = force_spectra(tables, ts)
-    analysis_wall = time.perf_counter() - t_an
-
-    stage("zhang2013", "writing the data and the report")
-    prov = {"study": STEM, "mode": mode, "nld_version": __version__, "git_hash": git_hash(),
-            "scene": base.name, "scene_parameters": scene_to_dict(base),
-            "integrator": "dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
-            "reference": "ideal joints: nld.model.ideal.ideal_solution at the same output times",
-            "paper": CITATION, **settings, "t_steady_from": ts, "t_end": float(times[-1]),
-            "workers": workers, "cases": runs, "summary": summary.to_dict(orient="records"),
-            "peak_convergence": conv.to_dict(orient="records"),
-            "simulation_wall_s": sim_wall, "analysis": an, "analysis_wall_s": analysis_wall,
-            "analysis_points": pts.to_dict(orient="records")}
-
+def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
     # time series of every case (and the ideal twin), with a steady flag
     data = {}
-    for name, df in tables.items():
+    for name, df in {**tables, "ideal": ideal}.items():
         d = df.copy()
         d.insert(0, "steady", d["t"].to_numpy() >= ts - 1e-12)
         data[name] = d
-    d = ideal.copy()
-    d.insert(0, "steady", d["t"].to_numpy() >= ts - 1e-12)
-    data["ideal"] = d
-    save_study_data(data, out_dir / f"{STEM}.parquet", prov)
-    save_table(summary, out_dir / f"{STEM}_summary.csv", prov)
-    save_table(maxima, out_dir / f"{STEM}_maxima.csv", prov)
+    study.save(".parquet", data)
+    study.save("_summary.csv", summary)
+    study.save("_maxima.csv", maxima)
     if check is not None:
-        save_table(check, out_dir / f"{STEM}_maxima_check.csv", prov)
-    save_study_data({"sections": secs}, out_dir / f"{STEM}_sections.parquet", prov)
-    save_table(pts, out_dir / f"{STEM}_chaos.csv", prov)
+        study.save("_maxima_check.csv", check)
+    study.save("_sections.parquet", {"sections": secs})
+    study.save("_chaos.csv", pts)
     spec_frames = {f"{n}:{j}": pd.DataFrame(sp) for (n, j), (sp, _) in spectra.items() if sp is not None}
     if spec_frames:
-        save_study_data(spec_frames, out_dir / f"{STEM}_spectra.parquet", prov)
+        study.save("_spectra.parquet", spec_frames)
 
+
+def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
+            sim_wall, analysis_wall, workers):
+    from nld.run.simulate import crank_period
+    from nld.study import sde as _sde
+    from nld.study import run_table, timing
+    settings, mode, mode_label = study.settings, study.mode, study.label
+    period = crank_period(base)
     report_settings = {
         "Mode": mode_label,
         "Cases": ", ".join(CASES) + ", ideal",
@@ -1153,16 +1066,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         "Worker processes": workers,
         "Crank speed": f"{base.driver.speed:g} rad/s (constant)",
         "Contact / friction law": f"{base.joints['A'].contact.law} / {base.joints['A'].friction.law}",
-        "Simulation wall time": f"{sim_wall:.1f} s" if not _sde() else "not shown (SOURCE_DATE_EPOCH)",
+        "Simulation wall time": timing(f"{sim_wall:.1f} s"),
         "Chaos analysis": (f"rtol {an['rtol']:g}, {an['transient_revs']} + {an['section_revs']} revs, λ1 over "
                            f"{an['lyap_revs']} revs; {len(an['clearances'])} clearances, "
                            f"{len(an['frictions'])} friction values" +
                            ("" if _sde() else f"; {analysis_wall:.1f} s")),
     }
-    rep = Report(pdf_path, TITLE, scene=base, provenance=prov, settings=report_settings,
-                 subtitle=("full mode" if mode == "full" else mode_label), highlight_subtitle=mode != "full",
-                 subject="Repetition of Zhang et al. (2013), Figs 2-9, with nld",
-                 keywords=["clearance joint", "excavator", "Zhang 2013", mode], started=start)
+    rep = study.report(report_settings, scene=base, subject="Repetition of Zhang et al. (2013), Figs 2-9, with nld",
+                       keywords=["clearance joint", "excavator", "Zhang 2013"])
     with rep:
         rep.text_page("What this report repeats", _text_intro(mode_label, settings, summary, runs, period))
         shown = summary.copy()
@@ -1222,18 +1133,47 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         _fig_bifurcation(rep, "clearance", secs, pts, an, period)
         _fig_bifurcation(rep, "friction", secs, pts, an, period)
         _fig_spectra(rep, spectra)
-        rep.table("Run statistics", _run_table(runs), col_units={"wall time": "s"},
+        rep.table("Run statistics", run_table(runs, RUN_COLUMNS), col_units={"wall time": "s"},
                   notes=["Integrator statistics of each case (nld.analysis.extrema.revolution_maxima: dopri5, one "
                          "kernel call per revolution; 'refinement steps' are the steps of the peak windows) "
                          "and wall time on this "
                          "machine (left out when SOURCE_DATE_EPOCH is set, for a reproducible PDF). Provenance (versions, git hash, every scene parameter, the overrides of "
                          "each case) is stored in the parquet metadata and its .json sidecar."])
-    return pdf_path
 
 
-def _sde() -> bool:
-    from nld.output.report import source_date_epoch
-    return source_date_epoch() is not None
+# ----------------------------------------------------------------------------------------- main
+
+
+def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
+    """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
+
+    Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
+    NLD_WORKERS (nld.output.report.study_workers).
+    """
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir, smoke=smoke)
+    settings, workers = study.settings, study.workers(WORKERS[study.mode])
+    base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
+    summary = summary_table(revolution_stats(maxima), ideal, ts)
+    conv = convergence_table(maxima, check, settings)
+    sim_wall = study.elapsed()
+    an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
+    secs, pts = run_analysis(an, workers=workers)
+    study.stage("force spectra", "zhang2013")
+    spectra = force_spectra(tables, ts)
+    analysis_wall = time.perf_counter() - t_an
+    study.stage("writing the data and the report", "zhang2013")
+    study.provenance(
+        scene=base, integrator="dopri5 (adaptive Dormand-Prince 5(4), nld.run.simulate)",
+        reference="ideal joints: nld.model.ideal.ideal_solution at the same output times", paper=CITATION,
+        **settings, t_steady_from=ts, t_end=float(times[-1]), workers=workers, cases=runs,
+        summary=summary.to_dict(orient="records"), peak_convergence=conv.to_dict(orient="records"),
+        simulation_wall_s=sim_wall, analysis=an, analysis_wall_s=analysis_wall,
+        analysis_points=pts.to_dict(orient="records"))
+    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra)
+    _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
+            sim_wall, analysis_wall, workers)
+    return study.pdf
 
 
 if __name__ == "__main__":

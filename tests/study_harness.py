@@ -10,8 +10,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def load_study(filename: str):
-    """Import studies/<filename> as a module (the studies are scripts, not a package)."""
+def load_study(filename):
+    """Import studies/<filename> (or the file at an absolute path) as a module (the studies are
+    scripts, not a package; the module is not put into sys.modules)."""
     path = ROOT / "studies" / filename
     spec = importlib.util.spec_from_file_location(f"{path.stem}_study_under_test", path)
     mod = importlib.util.module_from_spec(spec)

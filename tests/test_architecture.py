@@ -24,7 +24,7 @@ LAYERS = [
     {"nld.run"},                                                      # simulate
     {"nld.systems"},                                                  # systems and their views
     {"nld.analysis"},                                                 # analyses on systems
-    {"nld.cli", "nld", "nld.__main__"},                                             # the command line, the API root
+    {"nld.cli", "nld", "nld.__main__", "nld.study"},                                # the command line, the API root, the study scaffold
 ]
 
 

@@ -1,0 +1,245 @@
+"""The scaffold of a study (``studies/NAME.py``, run by ``nld study NAME [--quick]``).
+
+A study module defines ``STEM`` (the file names of its outputs), ``TITLE``, the settings of each
+mode (``FULL``, ``QUICK``, optionally ``SMOKE``: dicts), optionally ``MODE_LABELS`` (``{mode:
+label}``, a label may name settings as ``{rtol:g}``), ``CITATION``, and a
+``main(quick=False, out_dir=Path("reports")) -> Path`` that does little more than::
+
+    def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
+        study = Study(globals(), quick, out_dir)         # mode, settings, out_dir, start time
+        st = study.settings
+        result = compute(st, workers=study.workers(st["workers"]))     # the study's own work
+        study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION,
+                         settings=st, compute_wall_s=study.elapsed())
+        study.save(".parquet", {"case": result})               # data + provenance sidecar
+        with study.report({"Mode": study.label, "rtol": st["rtol"]}, scene=base,
+                          subject="...", keywords=["..."]) as rep:
+            rep.text_page("What this report shows", ["..."])
+        return study.pdf
+
+What it gives (all of it written once here, so that studies do not repeat it):
+
+* the mode (``full``, ``quick`` or ``smoke``), its settings (a copy of the module's dict) and its
+  label (:attr:`Study.label`: "full mode", or ``MODE_LABELS[mode]`` formatted with the settings);
+* the output directory (created) and the paths of the outputs (:meth:`Study.path`, :attr:`Study.pdf`);
+* the provenance dict (:meth:`Study.provenance`: study, mode, nld version, git hash, the scene
+  and its parameters, then the study's own keys) and the writing of tables with it
+  (:meth:`Study.save`: parquet with a ``case`` column from a dict of frames, or CSV/parquet);
+* the :class:`nld.output.report.Report` with the standard subtitle (red in quick and smoke mode),
+  keywords (ending with the mode) and wall time counted from the start of the study
+  (:meth:`Study.report`);
+* the worker count (:meth:`Study.workers`: the default or NLD_WORKERS), progress lines
+  (:meth:`Study.stage`), a work directory for resumable work (:meth:`Study.work_dir`) and a
+  process-pool map that survives Ctrl-C (:meth:`Study.map`);
+* the helpers several studies need: :func:`sde` (is SOURCE_DATE_EPOCH set: leave timings out),
+  :func:`timing` / :func:`drop_timing` (a timing, or "not shown" under SOURCE_DATE_EPOCH),
+  :func:`verdict` (chaotic / regular / uncertain from an exponent, its uncertainty and the
+  section length).
+
+The numbers a study writes do not depend on the scaffold: it only names, places and labels them.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+__all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict",
+           "NOT_SHOWN", "SHORT"]
+
+NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
+SHORT = "λ1 > 0, short"
+_SETTINGS = {"full": "FULL", "quick": "QUICK", "smoke": "SMOKE"}
+
+
+def sde() -> bool:
+    """True when SOURCE_DATE_EPOCH is set: a reproducible report, timings are left out."""
+    from nld.output.report import source_date_epoch
+    return source_date_epoch() is not None
+
+
+def timing(text: str) -> str:
+    """``text`` (a wall time), or "not shown (SOURCE_DATE_EPOCH)" for a reproducible report."""
+    return NOT_SHOWN if sde() else text
+
+
+def drop_timing(df, *columns):
+    """``df`` without ``columns`` (wall times) when SOURCE_DATE_EPOCH is set, else ``df``."""
+    return df.drop(columns=list(columns)) if sde() else df
+
+
+def run_table(runs: dict, columns: dict):
+    """The "Run statistics" table: a row per run of ``runs`` ({case: run record}) with its case,
+    success, then ``columns`` ({label: key}: the record's ``key``, ``stats.KEY`` its integrator
+    statistic) and its wall time [s] (left out under SOURCE_DATE_EPOCH)."""
+    import pandas as pd
+    rows = []
+    for name, r in runs.items():
+        st = r.get("stats", {})
+        rows.append({"case": name, "success": bool(r["success"]),
+                     **{label: st.get(key[6:]) if key.startswith("stats.") else r.get(key)
+                        for label, key in columns.items()},
+                     "wall time": round(r["wall_s"], 2)})
+    return drop_timing(pd.DataFrame(rows), "wall time")
+
+
+def verdict(lam: float, unc: float, n_points: int, min_points: int, failed: bool | None = None) -> str:
+    """'chaotic' only for lambda - uncertainty > 0 over a section of at least ``min_points`` points
+    (a positive exponent over a shorter section is 'λ1 > 0, short': the section cannot tell an
+    attractor from a transient); 'regular' for lambda + uncertainty < 0; else 'uncertain'.
+    'failed' when ``failed`` (default: lambda is NaN)."""
+    if failed if failed is not None else not (lam == lam):
+        return "failed"
+    if lam + unc < 0:
+        return "regular"
+    if lam - unc > 0:
+        return "chaotic" if n_points >= min_points else SHORT
+    return "uncertain"
+
+
+def work_dir(out_dir, stem: str, mode: str, name: str) -> Path:
+    """Where the work ``name`` of a study keeps its finished parts, so that an interrupted study
+    run again resumes: ``out_dir/.work/STEM-MODE-NAME-GIT``, tied to the git commit (parts
+    computed by other code are not reused)."""
+    from nld.output.provenance import git_hash
+    return Path(out_dir) / ".work" / f"{stem}-{mode}-{name}-{git_hash()[:12]}"
+
+
+def pool_map(fn, items, workers: int) -> list:
+    """``[fn(*item) for item in items]``, on ``workers`` spawned processes when > 1 and there
+    is more than one item; results in the order of ``items``.
+
+    ``fn`` is a module-level function of the study: a worker imports the study from its folder
+    by its file name (which the processes inherit on sys.path). Workers ignore SIGINT (it
+    reaches the whole process group); on Ctrl-C or an error the pool is ended at once
+    (nld.interrupt.end_pool) instead of waiting for items that may take minutes."""
+    items = list(items)
+    if workers <= 1 or len(items) <= 1:
+        return [fn(*it) for it in items]
+    import importlib
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    from nld.interrupt import end_pool, ignore_in_worker
+    src = Path(fn.__code__.co_filename).resolve()
+    if str(src.parent) not in sys.path:
+        sys.path.insert(0, str(src.parent))
+    fn = getattr(importlib.import_module(src.stem), fn.__name__)
+    ex = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn"),
+                             initializer=ignore_in_worker)
+    try:
+        futs = [ex.submit(fn, *it) for it in items]
+        res = [f.result() for f in futs]
+    except BaseException:
+        end_pool(ex)
+        raise
+    ex.shutdown(wait=True)
+    return res
+
+
+class Study:
+    """One run of a study in one mode; see the module docstring.
+
+    module: the study module, its name, or its ``globals()`` (a study loaded from its file by
+    ``nld study`` or a test need not be in sys.modules: pass ``globals()``). quick, smoke: the mode
+    (smoke, for tests, wins over quick). out_dir: where the outputs go (created).
+    """
+
+    def __init__(self, module, quick: bool = False, out_dir=Path("reports"), *, smoke: bool = False):
+        if isinstance(module, str):
+            module = sys.modules[module]
+        elif isinstance(module, dict):
+            module = SimpleNamespace(**module)
+        self.module = module
+        self.start = time.perf_counter()
+        self.stem: str = self.module.STEM
+        self.title: str = self.module.TITLE
+        self.mode = "smoke" if smoke else "quick" if quick else "full"
+        self.quick = self.mode != "full"
+        self.settings = dict(getattr(self.module, _SETTINGS[self.mode]))
+        self.out_dir = Path(out_dir)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.prov: dict = {}
+
+    # ------------------------------------------------------------------ names and places
+    @property
+    def label(self) -> str:
+        """The mode as said on the title page: "full mode", or MODE_LABELS[mode] with the settings."""
+        labels = getattr(self.module, "MODE_LABELS", {})
+        if self.mode == "full" or self.mode not in labels:
+            return "full mode" if self.mode == "full" else f"{self.mode.upper()} MODE"
+        return labels[self.mode].format(**self.settings)
+
+    @property
+    def pdf(self) -> Path:
+        return self.path(".pdf")
+
+    def path(self, suffix: str) -> Path:
+        """``out_dir / (STEM + suffix)``, e.g. ``path("_summary.csv")``."""
+        return self.out_dir / f"{self.stem}{suffix}"
+
+    def work_dir(self, name: str) -> Path:
+        """:func:`work_dir` of this study, mode and output directory."""
+        return work_dir(self.out_dir, self.stem, self.mode, name)
+
+    # ------------------------------------------------------------------ time, workers, progress
+    def elapsed(self) -> float:
+        """Seconds since the study started."""
+        return time.perf_counter() - self.start
+
+    @staticmethod
+    def workers(default: int) -> int:
+        """Worker processes: ``default`` or NLD_WORKERS (nld.output.report.study_workers)."""
+        from nld.output.report import study_workers
+        return study_workers(default)
+
+    def stage(self, what: str, label: str | None = None) -> None:
+        """A progress line "label: what" (nld.progress.stage; label defaults to STEM)."""
+        from nld.progress import stage
+        stage(label or self.stem, what)
+
+    @staticmethod
+    def map(fn, items, workers: int) -> list:
+        """:func:`pool_map`: ``[fn(*item) for item in items]`` on ``workers`` processes."""
+        return pool_map(fn, items, workers)
+
+    # ------------------------------------------------------------------ provenance and data
+    def provenance(self, scene=None, **extra) -> dict:
+        """The provenance of every file the study writes (kept as :attr:`prov`): study, mode,
+        nld_version, git_hash; with ``scene`` (a Scene) its name and every parameter
+        (scene, scene_parameters), or only ``scene`` when it is a string; then ``extra`` in its
+        order (integrator, rtol, source, settings, compute_wall_s, ...)."""
+        from nld.output.provenance import git_hash
+        from nld.version import __version__
+        prov = {"study": self.stem, "mode": self.mode, "nld_version": __version__, "git_hash": git_hash()}
+        if isinstance(scene, str):
+            prov["scene"] = scene
+        elif scene is not None:
+            from nld.model.scene import scene_to_dict
+            prov.update(scene=scene.name, scene_parameters=scene_to_dict(scene))
+        prov.update(extra)
+        self.prov = prov
+        return prov
+
+    def save(self, suffix: str, data) -> Path:
+        """Write ``data`` to ``path(suffix)`` with the provenance: a ``{case: DataFrame}`` dict is
+        stacked with a leading ``case`` column (nld.output.report.save_study_data), a DataFrame is
+        written as it is (nld.output.io.save_table: .parquet or .csv, with a .json sidecar)."""
+        from nld.output.report import save_study_data
+        return save_study_data(data, self.path(suffix), self.prov)
+
+    # ------------------------------------------------------------------ report
+    def report(self, settings: dict, *, scene=None, subject: str | None = None, keywords=(),
+               subtitle: str | None = "", **kw):
+        """The study's Report (a context manager) at :attr:`pdf`: TITLE, the provenance, the title
+        page's ``settings``; subtitle "full mode" or the mode label (red outside full mode; pass
+        ``subtitle`` to change it, None for none); keywords end with the mode unless they name it;
+        the wall time counts from the start of ``nld study`` or of this Study, whichever is
+        earlier. ``kw``: more arguments of Report."""
+        from nld.output.report import Report, study_start
+        keywords = list(keywords) + ([] if self.mode in keywords else [self.mode])
+        return Report(self.pdf, self.title, scene=scene, provenance=self.prov, settings=settings,
+                      subtitle=self.label if subtitle == "" else subtitle, highlight_subtitle=self.quick,
+                      subject=subject, keywords=keywords,
+                      started=min(self.start, study_start() or self.start), **kw)
