@@ -118,14 +118,13 @@ def process_pool(fn, payload, items, *, workers: int, batch_size: int | None = N
     """The items on ``workers`` spawned processes, in batches (module docstring); yields the
     records as their batches finish. The workers write the records to ``store``."""
     import multiprocessing as mp
-    items = list(items)
+    parts = batches(items, workers, batch_size)
     out = None if store is None else str(store.path)
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
                              initializer=_init_worker, initargs=(_env(), warm))
     futures = []
     try:
-        futures = [ex.submit(_run_batch, fn, payload, b, out)
-                   for b in batches(items, workers, batch_size)]
+        futures = [ex.submit(_run_batch, fn, payload, b, out) for b in parts]
         for fut in as_completed(futures):
             yield from fut.result()
     except BaseException:
