@@ -61,8 +61,8 @@ def _load() -> str:
 
 
 def _point_walls(out: Path) -> list[float]:
-    from nld.analysis.bifurcation import _read_point
-    return [float(_read_point(p)["wall"]) for p in sorted(out.glob("point-*.parquet"))]
+    from nld.sweeps.store import ResultStore
+    return [float(rec["wall"]) for rec in ResultStore(out).records()]
 
 
 def bench_sweeps(n_points: int, tmp: Path) -> dict:

@@ -7,7 +7,7 @@ section points; each point also gets a period estimate (:func:`nld.analysis.poin
 optionally, the largest Lyapunov exponent (``nld.analysis.lyapunov.largest_exponent``: the tangent
 estimator with saltation by default, the two-trajectory one on request).
 
-* Independent points (default) run in parallel: a local ``ProcessPoolExecutor`` (spawned
+* Independent points (default) run in parallel (:mod:`nld.sweeps`): a local ``ProcessPoolExecutor`` (spawned
   workers, each warmed once by an initializer that loads the kernel from numba's disk cache;
   points sent in batches), or a Dask cluster (``dask=`` scheduler address or
   ``distributed.Client``). The numbers do not depend on where a point ran: local and Dask
@@ -26,7 +26,7 @@ written atomically when the point finishes (a killed sweep loses only the points
 with the point's final state and wall time in its metadata, plus ``DIR/provenance.json`` (nld
 version, git hash, scene with all its parameters, param, values, tolerances and settings).
 ``resume=True`` skips the points whose file exists (the settings must match those in
-provenance.json). :func:`load_sweep` reads the directory back into one table.
+provenance.json); the files are those of :class:`nld.sweeps.store.ResultStore`. :func:`load_sweep` reads the directory back into one table.
 
 Table columns: ``value`` (the parameter value), ``direction`` ("up"/"down"), ``index`` (position
 of the value in ``values``), ``rev`` (crank revolution of the section point; -1 on the single row of
@@ -38,24 +38,19 @@ increasing index, then the down points by decreasing index, then by rev.
 from __future__ import annotations
 
 import copy
-import json
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from nld.errors import InputError
-from nld.interrupt import end_pool
+from nld.sweeps.store import META_KEY, PROVENANCE, ResultStore  # noqa: F401 - META_KEY re-exported
 
 __all__ = ["sweep", "load_sweep", "parse_values", "add_arguments", "cli_bifurcation"]
 
-PROVENANCE = "provenance.json"
-META_KEY = b"nld_point"
 DIRECTIONS = ("up", "down")
 # settings that must match for resume=True
 _SETTINGS = ("scene_parameters", "param", "values", "transient_revs", "revs", "observables",
@@ -79,7 +74,6 @@ class _Spec:
     lyapunov: bool
     lyapunov_revs: int
     lyapunov_rtol: float | None
-    out: str | None = None
     lyapunov_estimator: str = "tangent"
     cache_dir: str | None = field(default=None)
 
@@ -154,11 +148,8 @@ def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None)
     table["status"] = [status] * n
     table["message"] = [message] * n
     wall = time.perf_counter() - start
-    rec = dict(direction=direction, index=int(index), value=value, status=status,
-               message=message, y_final=y_final, z_final=z_final, wall=wall, table=table)
-    if spec.out is not None:
-        _write_point(Path(spec.out), rec)
-    return rec
+    return dict(direction=direction, index=int(index), value=value, status=status,
+                message=message, y_final=y_final, z_final=z_final, wall=wall, table=table)
 
 
 def _lyapunov(spec: _Spec, scene, kern, sec):
@@ -179,90 +170,29 @@ def _lyapunov(spec: _Spec, scene, kern, sec):
         return math.nan, math.nan, f"lyapunov failed: {type(e).__name__}: {' '.join(str(e).split())}"
 
 
-def _run_batch(spec: _Spec, batch) -> list[dict]:
-    return [_run_point(spec, d, i, v) for d, i, v in batch]
-
-
-_WORKER_SPEC: _Spec | None = None
-
-
-def _warm_worker(spec: _Spec, value) -> int:
-    """Load the kernel (numba disk cache) once per worker process; returns the pid."""
-    global _WORKER_SPEC
-    _WORKER_SPEC = spec
-    from nld.interrupt import ignore_in_worker
-    from nld.progress import set_default
-    ignore_in_worker()          # Ctrl-C reaches the process group: the main process ends the pool
-    set_default(False)          # no progress bars from workers
+def warm_up(spec: _Spec, value) -> None:
+    """Load the kernel of ``value``'s scene (numba disk cache) and run a few steps: the warm-up
+    of every worker process of a parallel sweep (nld.sweeps.executors)."""
     if spec.cache_dir and not os.environ.get("NLD_CACHE_DIR"):
         os.environ["NLD_CACHE_DIR"] = spec.cache_dir
-    try:
-        from nld.kernel.compile import compile_scene
-        from nld.run.simulate import crank_period, simulate
-        scene = _scene_for(spec, value)
-        kern = compile_scene(scene)
-        simulate(scene, t_eval=np.array([0.0, 0.01 * crank_period(scene)]), land=True,
-                 kernel=kern, rtol=spec.rtol)
-    except Exception:             # noqa: BLE001 - the points report their own errors
-        pass
-    return os.getpid()
+    from nld.kernel.compile import compile_scene
+    from nld.run.simulate import crank_period, simulate
+    scene = _scene_for(spec, value)
+    kern = compile_scene(scene)
+    simulate(scene, t_eval=np.array([0.0, 0.01 * crank_period(scene)]), land=True,
+             kernel=kern, rtol=spec.rtol)
 
 
 # ---------------------------------------------------------------------------------------------------
 # files
 
 
-def _point_path(out: Path, direction: str, index: int) -> Path:
-    return out / f"point-{direction}-{index:05d}.parquet"
-
-
-def _write_point(out: Path, rec: dict) -> Path:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-    path = _point_path(out, rec["direction"], rec["index"])
-    table = pa.Table.from_pandas(rec["table"], preserve_index=False)
-    meta = {k: rec[k] for k in ("direction", "index", "value", "status", "message", "y_final",
-                                "z_final", "wall")}
-    md = dict(table.schema.metadata or {})
-    md[META_KEY] = json.dumps(meta, default=_json_default).encode()
-    table = table.replace_schema_metadata(md)
-    tmp = out / f".{path.name}.{os.getpid()}.tmp"
-    try:
-        pq.write_table(table, tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
-
-
-def _read_point(path: Path) -> dict:
-    import pyarrow.parquet as pq
-    t = pq.read_table(path)
-    meta = json.loads((t.schema.metadata or {}).get(META_KEY, b"{}").decode())
-    meta["table"] = t.to_pandas()
-    return meta
-
-
 def load_sweep(out) -> pd.DataFrame:
     """All finished points of a sweep directory as one table (see the module docstring), sweep
     order; ``attrs["provenance"]`` holds provenance.json."""
-    out = Path(out).expanduser()
-    if not out.is_dir():
-        raise InputError(f"sweep directory not found: {out}")
-    prov_path = out / PROVENANCE
-    prov = json.loads(prov_path.read_text()) if prov_path.is_file() else {}
-    frames = []
-    for p in sorted(out.glob("point-*.parquet")):
-        frames.append(_read_point(p)["table"])
+    store = ResultStore.existing(out, "sweep")
+    prov = store.provenance()
+    frames = [rec["table"] for rec in store.records()]
     if not frames:
         df = pd.DataFrame(columns=["value", "direction", "index", "rev", "period", "lyapunov",
                                    "lyapunov_uncertainty", "status", "message"])
@@ -374,7 +304,8 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     from nld.output.provenance import git_hash
     from nld.model.scene import scene_to_dict
     from nld.analysis.poincare import _check_count, _load
-    from nld.progress import progress_bar, split_progress
+    from nld.progress import split_progress
+    from nld.sweeps.engine import Tracker, run_points
     bar_on, on_point = split_progress(progress, on_point)
     sc = _load(scene, overrides)
     raw = scene_to_dict(sc)
@@ -404,7 +335,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
                  n_max=int(min(n_max, max(1, revs // 2))), lyapunov=bool(lyapunov),
                  lyapunov_revs=int(lyapunov_revs),
                  lyapunov_rtol=None if lyapunov_rtol is None else float(lyapunov_rtol),
-                 out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"),
+                 cache_dir=os.environ.get("NLD_CACHE_DIR"),
                  lyapunov_estimator=lyapunov_estimator)
     settings = dict(scene=sc.name, scene_parameters=raw, param=param, values=values,
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
@@ -415,55 +346,30 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
                     lyapunov_estimator=lyapunov_estimator if spec.lyapunov else None)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="bifurcation",
                 integrator="dopri5", **settings)
+    store = None
     done = {}
-    outp = None
     if out is not None:
-        outp = Path(out).expanduser()
-        _prepare_out(outp, prov, resume)
-        spec.out = str(outp)
+        store = ResultStore(out)
+        store.prepare(prov, _SETTINGS, resume=resume)
         if resume:
-            for p in outp.glob("point-*.parquet"):
-                try:
-                    rec = _read_point(p)
-                except Exception:         # noqa: BLE001 - an unreadable file: run the point again
-                    continue
-                done[(rec["direction"], int(rec["index"]))] = rec
+            done = store.finished()
     elif resume:
         raise InputError("resume=True needs out (the directory of the interrupted sweep)")
     dirs = ["up", "down"] if up_down else ["up"]
     order = {"up": list(range(len(values))), "down": list(range(len(values)))[::-1]}
     points = [(d, i, values[i]) for d in dirs for i in order[d]]
-    total = len(points)
-    results = dict(done)
-    counter = [len(done)]
-
+    todo = [pt for pt in points if (pt[0], pt[1]) not in done]
     start = time.perf_counter()
-    with progress_bar(total=total, unit="point", desc=f"bifurcation {param}", enabled=bar_on,
-                      initial=len(done)) as bar:
-
-        def finished(rec):
-            results[(rec["direction"], rec["index"])] = rec
-            counter[0] += 1
-            bar.update(1)
-            if on_point is not None:
-                on_point(counter[0], total, rec)
-
-        try:
-            if continuation:
-                _run_chain(spec, points, done, finished)
-            else:
-                todo = [pt for pt in points if (pt[0], pt[1]) not in done]
-                if todo:
-                    if dask is not None:
-                        wspec = copy.copy(spec)
-                        wspec.out = None
-                        run_dask(_run_batch, spec, wspec, (spec, todo[0][2]), todo, dask,
-                                 batch_size, finished, spec.out)
-                    else:
-                        run_local(_run_point, _run_batch, spec, (spec, todo[0][2]), todo, workers,
-                                  batch_size, finished)
-        except KeyboardInterrupt as e:
-            raise interrupted_sweep(e, counter[0], total, outp, "points") from None
+    run = dict(store=store, desc=f"bifurcation {param}", unit="point", progress=bar_on,
+               on_point=on_point)
+    if continuation:
+        with Tracker(len(points), done=done, **run) as track:
+            _run_chain(spec, points, done, store, track.finished)
+        results = track.results
+    else:
+        results = run_points(_run_point, spec, todo, done=done, total=len(points), workers=workers,
+                             dask=dask, batch_size=batch_size,
+                             warm=(warm_up, (spec, todo[0][2])) if todo else None, **run)
     frames = [results[(d, i)]["table"] for d, i, _ in points if (d, i) in results]
     df = _sorted(pd.concat(frames, ignore_index=True)) if frames else pd.DataFrame()
     prov["wall"] = time.perf_counter() - start
@@ -471,44 +377,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 5
     return df
 
 
-def interrupted_sweep(exc, n_done, total, outp, what="points"):
-    """The :class:`nld.errors.Interrupted` of a sweep or map stopped by Ctrl-C after n_done of
-    total items."""
-    from nld.errors import Interrupted
-    if outp is not None:
-        # workers write each point as it finishes, before its batch comes back: count the files
-        n_done = max(n_done, len(list(Path(outp).glob("point-*.parquet"))))
-        kept = (f"{n_done} of {total} {what} finished and kept in {outp} (the ones in progress "
-                "were abandoned); run the same command with --resume (resume=True) to continue")
-    else:
-        kept = f"{n_done} of {total} {what} had finished; nothing written (no out directory)"
-    return Interrupted(f"interrupted after {n_done} of {total} {what}", kept=kept)
-
-
-def _prepare_out(outp: Path, prov: dict, resume: bool) -> None:
-    try:
-        outp.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise InputError(f"out = {str(outp)!r}: cannot create the directory ({e.strerror or e})") from None
-    existing = list(outp.glob("point-*.parquet"))
-    pp = outp / PROVENANCE
-    if pp.is_file() and (resume or existing):
-        old = json.loads(pp.read_text())
-        for k in _SETTINGS:
-            new = json.loads(json.dumps(prov.get(k), default=_json_default))
-            if json.dumps(old.get(k), sort_keys=True) != json.dumps(new, sort_keys=True):
-                raise InputError(f"out = {str(outp)!r} holds a different sweep ({k} differs): use "
-                                 "another directory, or the same settings to resume")
-    if existing and not resume:
-        raise InputError(f"out = {str(outp)!r} already holds {len(existing)} finished points: pass "
-                         "resume=True (--resume) to continue that sweep, or use another directory")
-    text = json.dumps(prov, indent=2, default=_json_default) + "\n"
-    tmp = outp / f".{PROVENANCE}.{os.getpid()}.tmp"
-    tmp.write_text(text)
-    os.replace(tmp, pp)
-
-
-def _run_chain(spec, points, done, finished):
+def _run_chain(spec, points, done, store, finished):
     """Continuation: sequential, each point from the previous point's final state."""
     y = z = None
     for d, i, v in points:
@@ -516,100 +385,13 @@ def _run_chain(spec, points, done, finished):
             rec = done[(d, i)]
         else:
             rec = _run_point(spec, d, i, v, y, z)
+            if store is not None:
+                store.write(rec)
             finished(rec)
         if rec.get("status") == "ok" and rec.get("y_final") is not None:
             y, z = np.array(rec["y_final"], dtype=float), np.array(rec["z_final"], dtype=float)
         else:
             y = z = None
-
-
-def _batches(points, n_workers, batch_size):
-    if batch_size is None:
-        batch_size = max(1, math.ceil(len(points) / (4 * max(1, n_workers))))
-    batch_size = int(batch_size)
-    if batch_size < 1:
-        raise InputError(f"batch_size = {batch_size}: must be >= 1")
-    return [points[k:k + batch_size] for k in range(0, len(points), batch_size)]
-
-
-def run_local(run_one, run_batch, payload, warm, todo, workers, batch_size, finished):
-    """Run the items of ``todo`` (tuples of arguments after ``payload``) on ``workers`` local
-    processes (None: the CPU count; 1: in this process by ``run_one(payload, *item)``), in batches
-    of ``run_batch(payload, batch)``; every spawned worker first runs ``_warm_worker(*warm)`` (loads
-    the kernel once). ``finished(record)`` is called for each result as it arrives. Shared by
-    sweeps and chaos maps (nld.analysis.chaos_map)."""
-    import multiprocessing as mp
-    if workers is None:
-        workers = os.cpu_count() or 1
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"workers = {workers!r}: must be an integer >= 1")
-    workers = min(workers, len(todo))
-    if workers == 1:
-        for item in todo:
-            finished(run_one(payload, *item))
-        return
-    batches = _batches(todo, workers, batch_size)
-    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
-                             initializer=_warm_worker, initargs=warm)
-    futures = []
-    try:
-        futures = [ex.submit(run_batch, payload, b) for b in batches]
-        for fut in as_completed(futures):
-            for rec in fut.result():
-                finished(rec)
-    except BaseException:
-        # Ctrl-C or an error: do not wait for the points in progress (they may take minutes)
-        for f in futures:
-            f.cancel()
-        end_pool(ex)
-        raise
-    ex.shutdown(wait=True)
-
-
-def _dask_client(dask):
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError("dask: the distributed package is missing: "
-                         "pip install \"dask[distributed]\"") from None
-    if isinstance(dask, Client):
-        return dask, False
-    if isinstance(dask, str):
-        try:
-            return Client(dask, timeout="30s"), True
-        except OSError as e:
-            raise InputError(f"dask = {dask!r}: cannot reach the scheduler ({e})") from None
-    raise InputError(f"dask = {dask!r}: give a distributed.Client or a scheduler address")
-
-
-def run_dask(run_batch, payload, worker_payload, warm, todo, dask, batch_size, finished, out):
-    """As :func:`run_local` on a Dask cluster (``dask``: a ``distributed.Client`` or a scheduler
-    address): every worker runs ``_warm_worker(*warm)``, batches go to ``run_batch(worker_payload,
-    batch)`` (``worker_payload``: the payload without an output directory) and come back to this
-    process, which writes each point's file under ``out`` (the cluster's workers need not see the
-    output directory) and calls ``finished(record)``."""
-    from distributed import as_completed as dask_completed
-    client, own = _dask_client(dask)
-    try:
-        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
-        client.run(_warm_worker, *warm)      # every worker loads the kernel once
-        futures = [client.submit(run_batch, worker_payload, b, pure=False)
-                   for b in _batches(todo, n_workers, batch_size)]
-        try:
-            for fut in dask_completed(futures):
-                for rec in fut.result():
-                    if out is not None:
-                        _write_point(Path(out), rec)
-                    finished(rec)
-        except BaseException:
-            try:
-                client.cancel(futures)
-            except Exception:     # noqa: BLE001
-                pass
-            raise
-    finally:
-        if own:
-            client.close()
 
 
 # ---------------------------------------------------------------------------------------------------

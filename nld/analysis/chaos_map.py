@@ -31,9 +31,10 @@ keys set together, e.g. the clearances of joints A and B) and runs:
    to the mechanism (seen with the stiff Lankarani-Nikravesh contact in permanent contact:
    docs/lyapunov.md, "Tolerance-dependent exponents").
 
-Parallel runs, files and resume reuse :mod:`nld.analysis.bifurcation`'s machinery (its point files,
-provenance checks, worker warm-up, batching and Dask client): the cells are independent points of
-a sweep whose "value" is the pair (x, y). ``workers`` local spawned processes (default the CPU
+Parallel runs, files and resume are :mod:`nld.sweeps`'s (the point files and provenance checks
+of :mod:`nld.sweeps.store`, the worker warm-up, batching and Dask client of
+:mod:`nld.sweeps.executors`): the cells are independent points of a sweep whose "value" is the
+pair (x, y). ``workers`` local spawned processes (default the CPU
 count; 1 runs in this process) or ``dask`` (a ``distributed.Client`` or scheduler address).
 ``out=DIR`` holds ``point-grid-<index>.parquet`` per finished cell (index = iy * len(values_x) +
 ix; rows: the section points with the cell's results repeated; metadata: final state and wall
@@ -65,6 +66,7 @@ import pandas as pd
 
 from nld.analysis import bifurcation as _bif
 from nld.errors import InputError
+from nld.sweeps.store import ResultStore
 
 __all__ = ["chaos_map", "load_chaos_map", "chaos_map_plot", "param_label", "SUMMARY_COLUMNS",
            "add_arguments", "cli_chaos_map"]
@@ -74,9 +76,12 @@ SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolut
                    "uncertainty_per_revolution", "verdict", "K", "K_spread", "period", "status",
                    "message", "per_revolution_check", "uncertainty_per_revolution_check"]
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
-# settings checked on resume besides bifurcation's (nld.analysis.bifurcation._SETTINGS)
+# settings checked on resume besides bifurcation's (nld.analysis.bifurcation._SETTINGS), also
+# when the directory holds no finished cell yet
 _EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check",
                    "lyapunov_integrator", "estimator")
+# what a provenance.json written before an extra setting existed stands for (dopri5, two trajectories)
+_EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin"}
 # exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
 CHECK_FACTOR = 3.0
 
@@ -236,20 +241,13 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     table = pd.concat([pd.DataFrame(head), table.reset_index(drop=True)], axis=1)
     for k, v in summary.items():
         table[k] = [v] * n if isinstance(v, str) else np.full(n, v)
-    rec = dict(direction=DIRECTION, index=int(index), value=[x, y], status=status,
-               message=message, y_final=y_final, z_final=z_final,
-               wall=time.perf_counter() - start, table=table)
-    if spec.out is not None:
-        _bif._write_point(Path(spec.out), rec)
-    return rec
+    return dict(direction=DIRECTION, index=int(index), value=[x, y], status=status,
+                message=message, y_final=y_final, z_final=z_final,
+                wall=time.perf_counter() - start, table=table)
 
 
 class _CellFailed(Exception):
     pass
-
-
-def _run_cell_batch(job: _Job, batch) -> list[dict]:
-    return [_run_cell(job, *cell) for cell in batch]
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -326,7 +324,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     from nld.analysis.poincare import _check_count, _load
     from nld.output.provenance import git_hash
     from nld.model.scene import scene_to_dict
-    from nld.progress import progress_bar, split_progress
+    from nld.progress import split_progress
+    from nld.sweeps.engine import run_points
     bar_on, on_point = split_progress(progress, on_point)
     keys_x, keys_y = _keys(param_x, "param_x"), _keys(param_y, "param_y")
     if set(keys_x) & set(keys_y):
@@ -369,7 +368,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
                       n_max=int(min(16, max(1, revs // 2))), lyapunov=True,
                       lyapunov_revs=int(lyapunov_revs),
                       lyapunov_rtol=float(rtol if lyapunov_rtol is None else lyapunov_rtol),
-                      out=None, cache_dir=os.environ.get("NLD_CACHE_DIR"),
+                      cache_dir=os.environ.get("NLD_CACHE_DIR"),
                       lyapunov_estimator=estimator)
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
                d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
@@ -392,52 +391,25 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
                 **settings)
     cells = [(iy * len(vx) + ix, ix, iy, vx[ix], vy[iy]) for iy in range(len(vy))
              for ix in range(len(vx))]
-    done: dict[int, dict] = {}
-    outp = None
+    store = None
+    done = {}
     if out is not None:
-        outp = Path(out).expanduser()
-        _check_extra(outp, prov)
-        _bif._prepare_out(outp, prov, resume)
-        spec.out = str(outp)
+        store = ResultStore(out)
+        store.check_settings(prov, _EXTRA_SETTINGS, what="run", defaults=_EXTRA_DEFAULTS)
+        store.prepare(prov, _bif._SETTINGS, resume=resume)
         if resume:
-            for p in outp.glob(f"point-{DIRECTION}-*.parquet"):
-                try:
-                    rec = _bif._read_point(p)
-                except Exception:         # noqa: BLE001 - an unreadable file: run the cell again
-                    continue
-                done[int(rec["index"])] = rec
+            done = store.finished(DIRECTION)
     elif resume:
         raise InputError("resume=True needs out (the directory of the interrupted map)")
-    results = dict(done)
-    total = len(cells)
-    counter = [len(done)]
-
     start = time.perf_counter()
-    todo = [c for c in cells if c[0] not in done]
-    with progress_bar(total=total, unit="cell", desc=f"chaos map {sc.name}", enabled=bar_on,
-                      initial=len(done)) as bar:
-
-        def finished(rec):
-            results[rec["index"]] = rec
-            counter[0] += 1
-            bar.update(1)
-            if on_point is not None:
-                on_point(counter[0], total, rec)
-
-        try:
-            if todo:
-                if dask is not None:
-                    wjob = copy.copy(job)
-                    wjob.spec = copy.copy(job.spec)
-                    wjob.spec.out = None          # this process writes the files
-                    _bif.run_dask(_run_cell_batch, job, wjob, (job.spec, todo[0][3]), todo, dask,
-                                  batch_size, finished, job.spec.out)
-                else:
-                    # each worker loads the kernel once (the cells share one structure)
-                    _bif.run_local(_run_cell, _run_cell_batch, job, (job.spec, todo[0][3]), todo,
-                                   workers, batch_size, finished)
-        except KeyboardInterrupt as e:
-            raise _bif.interrupted_sweep(e, counter[0], total, outp, "cells") from None
+    todo = [c for c in cells if (DIRECTION, c[0]) not in done]
+    # each worker loads the kernel once (the cells share one structure)
+    results = run_points(_run_cell, job, todo, done=done, total=len(cells), store=store,
+                         workers=workers, dask=dask, batch_size=batch_size,
+                         warm=(_bif.warm_up, (job.spec, todo[0][3])) if todo else None,
+                         progress=bar_on, on_point=on_point, desc=f"chaos map {sc.name}",
+                         unit="cell")
+    results = {index: rec for (_, index), rec in results.items()}
     df = _summary([results[c[0]]["table"] for c in cells if c[0] in results])
     prov["wall"] = time.perf_counter() - start
     prov["cells_run"] = len(todo)
@@ -456,36 +428,13 @@ def _plain_overrides(ov):
     return [str(o) if isinstance(o, str) else f"{o[0]}={o[1]}" for o in ov]
 
 
-def _check_extra(outp: Path, prov: dict) -> None:
-    """The settings bifurcation's check does not cover must match too on resume."""
-    import json
-    pp = outp / _bif.PROVENANCE
-    if not pp.is_file():
-        return
-    try:
-        old = json.loads(pp.read_text())
-    except ValueError:
-        return
-    for k in _EXTRA_SETTINGS:
-        new = json.loads(json.dumps(prov.get(k), default=_bif._json_default))
-        # maps before the options: dopri5, two trajectories
-        was = old.get(k, {"lyapunov_integrator": "dopri5", "estimator": "benettin"}.get(k))
-        if json.dumps(was, sort_keys=True) != json.dumps(new, sort_keys=True):
-            raise InputError(f"out = {str(outp)!r} holds a different run ({k} differs): use another "
-                             "directory, or the same settings to resume")
-
-
 def load_chaos_map(out, *, sections: bool = False) -> pd.DataFrame:
     """The finished cells of a map directory: one row per cell (as :func:`chaos_map`), or with
     ``sections=True`` every section point (columns ``x, y, ix, iy, rev, observable, value`` and the
     cell's results). ``attrs["provenance"]`` holds provenance.json."""
-    import json
-    out = Path(out).expanduser()
-    if not out.is_dir():
-        raise InputError(f"chaos map directory not found: {out}")
-    pp = out / _bif.PROVENANCE
-    prov = json.loads(pp.read_text()) if pp.is_file() else {}
-    recs = [_bif._read_point(p) for p in sorted(out.glob(f"point-{DIRECTION}-*.parquet"))]
+    store = ResultStore.existing(out, "chaos map")
+    prov = store.provenance()
+    recs = store.records(DIRECTION)
     frames = [r["table"] for r in recs]
     df = (_sections(frames) if frames else pd.DataFrame()) if sections else _summary(frames)
     param = prov.get("param") or [[], []]

@@ -1,0 +1,178 @@
+"""The resumable per-point result store of a sweep: one parquet file per finished point.
+
+    from nld.sweeps.store import ResultStore
+    store = ResultStore("maps/run1")
+    store.prepare(provenance, settings=("param", "values", "rtol"), resume=True)
+    done = store.finished()                   # {(group, index): record} already on disk
+    store.write(record)                       # atomically, as each point finishes
+    records = store.records()                 # every finished point, in file-name order
+
+A *record* is a dict with ``"direction"`` (the point's group: a sweep direction "up"/"down", or
+"grid"), ``"index"`` (int), ``"table"`` (a DataFrame: the point's rows) and any JSON-able
+metadata (value, status, message, final state, wall time ...). :meth:`ResultStore.write` stores
+it as ``DIR/point-<group>-<index:05d>.parquet``: the table, with the metadata as JSON in the
+Arrow schema metadata under :data:`META_KEY`. It writes a temporary file and renames it, so a
+killed process leaves either the whole point file or none (the points in progress run again on
+resume).
+
+``DIR/provenance.json`` describes the whole sweep (nld version, git hash, scene and settings).
+:meth:`ResultStore.prepare` creates the directory and checks it against the new provenance: the
+named settings must match those of a sweep already there (``resume=True``, or finished points
+present), else a one-line :class:`nld.errors.InputError` names the first field that differs; a
+directory with finished points is refused without ``resume``. It then (re)writes provenance.json.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from nld.errors import InputError
+
+__all__ = ["ResultStore", "PROVENANCE", "META_KEY", "read_point", "json_default"]
+
+PROVENANCE = "provenance.json"
+META_KEY = b"nld_point"
+PATTERN = "point-*.parquet"
+
+
+def json_default(o):
+    """JSON form of numpy scalars and arrays (anything else: its str)."""
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+def _plain(value) -> str:
+    """Canonical JSON text of a setting (for comparing an old and a new provenance)."""
+    return json.dumps(json.loads(json.dumps(value, default=json_default)), sort_keys=True)
+
+
+def _atomic(path: Path, write) -> Path:
+    """``write(tmp)`` then rename tmp to ``path``: readers see the whole file or none."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def read_point(path) -> dict:
+    """The record stored in one point file (its metadata and ``"table"``)."""
+    import pyarrow.parquet as pq
+    t = pq.read_table(path)
+    meta = json.loads((t.schema.metadata or {}).get(META_KEY, b"{}").decode())
+    meta["table"] = t.to_pandas()
+    return meta
+
+
+class ResultStore:
+    """The point files and provenance.json of one output directory (module docstring)."""
+
+    def __init__(self, out):
+        self.path = Path(out).expanduser()
+
+    def __repr__(self) -> str:
+        return f"ResultStore({str(self.path)!r})"
+
+    @classmethod
+    def existing(cls, out, what: str = "sweep") -> "ResultStore":
+        """The store of a directory that must exist (InputError ``<what> directory not found``)."""
+        store = cls(out)
+        if not store.path.is_dir():
+            raise InputError(f"{what} directory not found: {store.path}")
+        return store
+
+    # ---- provenance and settings
+
+    @property
+    def provenance_path(self) -> Path:
+        return self.path / PROVENANCE
+
+    def provenance(self) -> dict:
+        """provenance.json as a dict ({} when there is none)."""
+        pp = self.provenance_path
+        if not pp.is_file():
+            return {}
+        try:
+            return json.loads(pp.read_text())
+        except ValueError as e:
+            raise InputError(f"out = {str(self.path)!r}: {PROVENANCE} cannot be read ({e})") from None
+
+    def check_settings(self, provenance: dict, settings, *, what: str = "sweep",
+                       defaults: dict | None = None) -> None:
+        """InputError naming the first of ``settings`` whose value in ``provenance`` differs from
+        provenance.json's (nothing when there is no provenance.json). ``defaults``: the value an
+        older provenance.json that lacks a setting stands for."""
+        if not self.provenance_path.is_file():
+            return
+        old = self.provenance()
+        defaults = defaults or {}
+        for k in settings:
+            if _plain(old.get(k, defaults.get(k))) != _plain(provenance.get(k)):
+                raise InputError(f"out = {str(self.path)!r} holds a different {what} ({k} differs): "
+                                 "use another directory, or the same settings to resume")
+
+    def prepare(self, provenance: dict, settings, *, resume: bool, what: str = "sweep") -> None:
+        """Create the directory, check it (module docstring) and write provenance.json."""
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise InputError(f"out = {str(self.path)!r}: cannot create the directory "
+                             f"({e.strerror or e})") from None
+        n = self.count()
+        if resume or n:
+            self.check_settings(provenance, settings, what=what)
+        if n and not resume:
+            raise InputError(f"out = {str(self.path)!r} already holds {n} finished points: pass "
+                             "resume=True (--resume) to continue that sweep, or use another directory")
+        text = json.dumps(provenance, indent=2, default=json_default) + "\n"
+        _atomic(self.provenance_path, lambda tmp: tmp.write_text(text))
+
+    # ---- points
+
+    def point_path(self, group: str, index: int) -> Path:
+        return self.path / f"point-{group}-{int(index):05d}.parquet"
+
+    def write(self, record: dict) -> Path:
+        """Write one finished point atomically; returns its path."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+        path = self.point_path(record["direction"], record["index"])
+        table = pa.Table.from_pandas(record["table"], preserve_index=False)
+        meta = {k: v for k, v in record.items() if k != "table"}
+        md = dict(table.schema.metadata or {})
+        md[META_KEY] = json.dumps(meta, default=json_default).encode()
+        table = table.replace_schema_metadata(md)
+        return _atomic(path, lambda tmp: pq.write_table(table, tmp))
+
+    def files(self, group: str | None = None) -> list[Path]:
+        """The finished point files (of one group), sorted by name."""
+        pattern = PATTERN if group is None else f"point-{group}-*.parquet"
+        return sorted(self.path.glob(pattern)) if self.path.is_dir() else []
+
+    def count(self) -> int:
+        return len(self.files())
+
+    def records(self, group: str | None = None) -> list[dict]:
+        """Every finished point (of one group) as a record, in file-name order."""
+        return [read_point(p) for p in self.files(group)]
+
+    def finished(self, group: str | None = None) -> dict:
+        """{(group, index): record} of the finished points, for resume; a file that cannot be
+        read is left out (its point runs again)."""
+        done = {}
+        for p in self.files(group):
+            try:
+                rec = read_point(p)
+            except Exception:         # noqa: BLE001 - an unreadable file: run the point again
+                continue
+            done[(rec["direction"], int(rec["index"]))] = rec
+        return done
