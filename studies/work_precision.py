@@ -162,8 +162,7 @@ class Setup:
 
     def events(self, out) -> pd.DataFrame:
         status, t_reached, Y, n_out, st, ev_t, ev_k, ev_dir, n_logged, Z = out
-        names = self.kern.topo.clearance + [f"load{i}" for i, ld in enumerate(self.scene.loads)
-                                            if ld.modulation in ("crank_halves", "angle_threshold")]
+        names = self.kern.z_layout.event_names      # contacts, loads, stick/slip and clamp events
         nl = min(int(n_logged), len(ev_t))
         return pd.DataFrame({"t": ev_t[:nl], "joint": [names[k] for k in ev_k[:nl]],
                              "direction": ev_dir[:nl]})
@@ -201,7 +200,8 @@ def window_measures(setup: Setup, tab: pd.DataFrame, ev: pd.DataFrame, ref_tab: 
                                    tab[f"{j}.ey"].to_numpy()[:n] - ref_tab[f"{j}.ey"].to_numpy()[:n]))
     out["journal_err"] = float(np.max(d))
     out["journal_err_rel"] = out["journal_err"] / setup.cmin
-    ron = ref_ev[(ref_ev.direction > 0) & (ref_ev.t <= setup.t_window)]
+    # contact onsets only (not load switches, stick/slip or hertz_damped clamp events)
+    ron = ref_ev[(ref_ev.direction > 0) & (ref_ev.t <= setup.t_window) & ref_ev.joint.isin(list(setup.clearances))]
     t_first = float(ron.t.min()) if len(ron) else setup.t_window
     pre = ref_tab["t"].to_numpy()[:n] < t_first
     if pre.sum() >= 3:
@@ -213,7 +213,7 @@ def window_measures(setup: Setup, tab: pd.DataFrame, ev: pd.DataFrame, ref_tab: 
             errs.append(abs(float(np.max(tab[f"{j}.Fn"].to_numpy())) - fr) / fr)
     if errs:
         out["peak_force_err"] = max(errs)
-    on = ev[(ev.direction > 0) & (ev.t <= setup.t_window)]
+    on = ev[(ev.direction > 0) & (ev.t <= setup.t_window) & ev.joint.isin(list(setup.clearances))]
     out["n_onsets"], out["n_onsets_ref"] = float(len(on)), float(len(ron))
     if len(ron):
         worst = 0.0

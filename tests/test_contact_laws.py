@@ -388,7 +388,7 @@ def test_registry_checks_its_laws():
     assert contact_law("hertz_damped").jump_at_onset and not contact_law("hertz_damped").onset_velocity
     with pytest.raises(ValueError, match="extra argument 'speed'"):
         ContactLaw(name="x", force=hertz, extra=("speed",))
-    with pytest.raises(ValueError, match="needs the unclamped force"):
+    with pytest.raises(ValueError, match="needs the unclamped force and the contact-mode force"):
         ContactLaw(name="x", force=hertz, jump_at_onset=True)
     with pytest.raises(ValueError, match="already registered"):
         register(ContactLaw(name="hertz", force=hertz))

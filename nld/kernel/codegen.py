@@ -423,7 +423,7 @@ class Emitter:
         if law.jump_at_onset:
             # contact is a mode (z[ci] > 0 from the located onset to the located separation): the
             # jump C*ddot0 of seed eq. 11 happens at the event, never inside a step; in contact mode
-            # hertz_damped() is the smooth extension for trial points past the boundary
+            # hertz_damped_contact() is the smooth extension for trial points past the boundary
             self.w(f"if z[{ci}] > 0.0:")
         else:
             self.w(f"if pen{ci} > 0.0:")
@@ -432,7 +432,10 @@ class Emitter:
         if law.onset_velocity:
             self.w(f"vm = z[{ci}] if z[{ci}] > 0.0 else {self.P(pre + 'contact.min_approach_velocity')}")
         args = law_arguments(self, law, pre, "K, nexp", "vm")
-        self.w(f"Fn{ci} = {law.force.__name__}(pen{ci}, ddot{ci}, {args})")
+        # a law with a jump at onset runs its contact-mode force (hertz_damped keeps C*ddot at
+        # pen <= 0: the onset state is pen = 0 only to the root tolerance), nld.laws.law
+        force = law.mode_force if law.jump_at_onset else law.force
+        self.w(f"Fn{ci} = {force.__name__}(pen{ci}, ddot{ci}, {args})")
         if fr:
             f = j.friction
             if hyb:
@@ -475,6 +478,11 @@ class Emitter:
         pre = f"joints.{jn}."
         rj = self.P(pre + "journal_radius")
         rb = f"({rj} + {self.P(pre + 'clearance')})"
+        # only a sticking joint needs its row: zero otherwise (the Schur complement and the augmented
+        # solve read the row only in stick mode; zeros keep every variable defined on every path)
+        self.w(f"bt{ci} = 0.0; " + "; ".join(f"Jt{ci}_{k} = 0.0" for k in coords))
+        self.w(f"if z[{self.Z.mode[ci]}] == 2.0:")
+        self.ind += 1
         acc = {}
         for b, tag in ((bj, f"A{ci}"), (bb, f"B{ci}")):
             if b == GROUND:
@@ -499,6 +507,7 @@ class Emitter:
                 jx, jy, jt = self.jac(k, f"{tag}x", f"{tag}y")
                 terms.append(f"{sign}(-ny{ci}*{jx} + nx{ci}*{jy}" + (f" + {R}" if jt == "1.0" else "") + ")")
             self.w(f"Jt{ci}_{k} = {' '.join(terms) if terms else '0.0'}")
+        self.ind -= 1
 
     # --- mass matrix and bias ------------------------------------------------------------
     def mass_matrix(self, coords: list[int], arr: bool):
@@ -546,20 +555,71 @@ class Emitter:
 
     def ldl_solve(self, n: int, rhs_names: list[str], out_names: list[str]):
         """Unrolled LDL^T solve of M x = b (M symmetric positive definite, scalars M{a}_{c})."""
+        self.ldl_factor(n)
+        self.ldl_subst(n, rhs_names, out_names)
+
+    def ldl_factor(self, n: int, M: str = "M", L: str = "L", D: str = "D"):
+        """Unrolled LDL^T factorisation of the symmetric positive definite {M}{a}_{c} (a <= c):
+        scalars {D}{j} and {L}{i}_{j} (i > j)."""
         for j in range(n):
-            s = f"M{j}_{j}" + "".join(f" - L{j}_{k}*L{j}_{k}*D{k}" for k in range(j))
-            self.w(f"D{j} = {s}")
+            s = f"{M}{j}_{j}" + "".join(f" - {L}{j}_{k}*{L}{j}_{k}*{D}{k}" for k in range(j))
+            self.w(f"{D}{j} = {s}")
             for i in range(j + 1, n):
-                s = f"M{j}_{i}" + "".join(f" - L{i}_{k}*L{j}_{k}*D{k}" for k in range(j))
-                self.w(f"L{i}_{j} = ({s})/D{j}")
+                s = f"{M}{j}_{i}" + "".join(f" - {L}{i}_{k}*{L}{j}_{k}*{D}{k}" for k in range(j))
+                self.w(f"{L}{i}_{j} = ({s})/{D}{j}")
+
+    def ldl_subst(self, n: int, rhs_names: list[str], out_names: list[str], L: str = "L", D: str = "D",
+                  tmp: str = "zz"):
+        """Forward/backward substitution with the factors of ldl_factor: out = M^-1 rhs."""
         for i in range(n):
-            s = rhs_names[i] + "".join(f" - L{i}_{k}*zz{k}" for k in range(i))
-            self.w(f"zz{i} = {s}")
+            s = rhs_names[i] + "".join(f" - {L}{i}_{k}*{tmp}{k}" for k in range(i))
+            self.w(f"{tmp}{i} = {s}")
         for i in range(n):
-            self.w(f"zz{i} /= D{i}")
+            self.w(f"{tmp}{i} /= {D}{i}")
         for i in reversed(range(n)):
-            s = f"zz{i}" + "".join(f" - L{k}_{i}*{out_names[k]}" for k in range(i + 1, n))
+            s = f"{tmp}{i}" + "".join(f" - {L}{k}_{i}*{out_names[k]}" for k in range(i + 1, n))
             self.w(f"{out_names[i]} = {s}")
+
+    def stick_schur(self, S: list[int]):
+        """Accelerations of a tree (no ideal loop) with hybrid Coulomb joints in stick mode, by the
+        Schur complement on the unrolled LDL^T of M (already factored; qdd{k} holds the free
+        solution x0 = M^-1 Q):
+
+            M qdd + sum_h Jt_h^T lam_h = Q,   Jt_h qdd + bt_h = 0  (each sticking joint h)
+            Y_h = M^-1 Jt_h^T,   (Jt_a Y_b) lam = bt_a + Jt_a x0,   qdd = x0 - sum_h Y_h lam_h.
+
+        A joint not in stick mode gets an identity row (lam = 0, its Y = 0), so the Schur matrix
+        (size = the number of hybrid joints, 1 or 2 in the scenes) stays symmetric positive
+        definite and is solved by an unrolled LDL^T too: no array, no allocation. With no joint
+        in stick mode nothing of this runs. lam_h is the stick force F_t along the slip direction
+        (friction.py's sign: applied opposite on the journal), as the augmented solve's
+        multiplier (docs/contact-laws.md, "Modes")."""
+        ZL = self.Z
+        hyb = ZL.hybrid
+        n, nh = len(S), len(hyb)
+        stick = [f"z[{ZL.mode[ci]}] == 2.0" for ci in hyb]
+        self.w("if " + " or ".join(stick) + ":")
+        self.ind += 1
+        for h, ci in enumerate(hyb):
+            self.w("; ".join(f"Y{h}_{k} = 0.0" for k in S) + f"; Sc{h}_{h} = 1.0; rs{h} = 0.0")
+            self.w(f"if {stick[h]}:")
+            self.ind += 1
+            self.ldl_subst(n, [f"Jt{ci}_{k}" for k in S], [f"Y{h}_{k}" for k in S])
+            self.w(f"Sc{h}_{h} = " + " + ".join(f"Jt{ci}_{k}*Y{h}_{k}" for k in S))
+            self.w(f"rs{h} = bt{ci} + " + " + ".join(f"Jt{ci}_{k}*qdd{k}" for k in S))
+            self.ind -= 1
+        for a, ca in enumerate(hyb):
+            for b in range(a + 1, nh):      # zero unless both stick: Jt of a free joint is zero, Y too
+                self.w(f"Sc{a}_{b} = " + " + ".join(f"Jt{ca}_{k}*Y{b}_{k}" for k in S))
+        self.ldl_factor(nh, M="Sc", L="Ls", D="Ds")
+        self.ldl_subst(nh, [f"rs{h}" for h in range(nh)], [f"lam_s{h}" for h in range(nh)], L="Ls", D="Ds",
+                       tmp="zs")
+        for k in S:
+            self.w(f"qdd{k} -= " + " + ".join(f"Y{h}_{k}*lam_s{h}" for h in range(nh)))
+        for h, ci in enumerate(hyb):
+            self.w(f"if {stick[h]}:")
+            self.w(f"    Ft{ci} = lam_s{h}")
+        self.ind -= 1
 
     # --- loops of ideal joints -------------------------------------------------------
     def cut_terms(self, coords: list[int], bias: bool):
@@ -703,10 +763,12 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w(f"Tm = {E.P('driver.torque')} - {E.P('driver.torque_slope')}*(qd{crank} - {E.P('driver.speed')})")
             E.w(f"Q{crank} += Tm")
         n = len(S)
-        if not (loops or hyb):
+        if not loops:
             E.mass_matrix(coords, arr=False)
             if n:
                 E.ldl_solve(n, [f"Q{k}" for k in S], [f"qdd{k}" for k in S])
+                if hyb:     # stick rows by the Schur complement on the same factors (stick_schur)
+                    E.stick_schur(S)
         else:
             # augmented system [M Phi_q^T; Phi_q 0]: loop closures, then one row per hybrid Coulomb
             # joint: its stick constraint Jt qdd = -bt in stick mode, else lam = 0 (identity row)
@@ -776,17 +838,17 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         else:
             E.positions()
 
-    # events: penetration of each clearance joint, load switches, slip/stick of hybrid joints
-    if hyb:
-        # the slip velocity and the stick force need the whole dynamics (the stick multiplier)
-        E.lines, E.ind = body(False), 1
-    else:
-        start_positions()
+    # events: penetration of each clearance joint, load switches, slip/stick of hybrid joints.
+    # Positions and velocities only, except the stick margins of joints in stick mode (their stick
+    # force is the multiplier of the constrained dynamics: the whole rhs, run only then).
+    start_positions()
+    need_vel = set(hyb) | set(ZL.clamp)
+    if need_vel:
+        E.velocities(bias=False)
     for ci, jn in enumerate(t.clearance):
         j = scene.joints[jn]
-        if not hyb:
-            E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=False)
-            E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=False)
+        E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=ci in need_vel)
+        E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=ci in need_vel)
         E.w(f"g[{ci}] = np.sqrt((A{ci}x - B{ci}x)**2 + (A{ci}y - B{ci}y)**2) - "
             f"{E.P(f'joints.{jn}.clearance')}")
     for i, ld in enumerate(scene.loads):
@@ -796,24 +858,40 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
             E.w(f"g[{ZL.ev_load[i]}] = th{t.body_index(ld.body)} - {E.P(f'loads.{i}.threshold')}")
     for ci in hyb:
         jn = t.clearance[ci]
+        j = scene.joints[jn]
         md = f"z[{ZL.mode[ci]}]"
-        # slip velocity, positive while slipping in the mode's direction; stick margin mu_s Fn - |Ft|
+        # slip velocity (as clearance_force computes it), positive while slipping in the mode's
+        # direction
         E.w(f"hv{ci} = 1.0")
         E.w(f"if {md} == 1.0 or {md} == -1.0:")
-        E.w(f"    hv{ci} = {md}*(vt{ci} - z[{ZL.vt0[ci]}])")
+        E.ind += 1
+        bj, bb = t.body_index(j.bodies[0]), t.body_index(j.bodies[1])
+        rj = E.P(f"joints.{jn}.journal_radius")
+        wj = "0.0" if bj == GROUND else f"w{bj}"
+        wb = "0.0" if bb == GROUND else f"w{bb}"
+        E.w(f"exv = A{ci}x - B{ci}x; eyv = A{ci}y - B{ci}y; eccv = np.sqrt(exv*exv + eyv*eyv)")
+        E.w(f"vt{ci} = 0.0")
+        E.w("if eccv > 0.0:")
+        E.w(f"    vt{ci} = slip_velocity(A{ci}vx - B{ci}vx, A{ci}vy - B{ci}vy, exv/eccv, eyv/eccv, {wj}, {wb}, "
+            f"{rj}, {rj} + {E.P(f'joints.{jn}.clearance')})")
+        E.w(f"hv{ci} = {md}*(vt{ci} - z[{ZL.vt0[ci]}])")
+        E.ind -= 1
         E.w(f"g[{ZL.ev_v[ci]}] = z[{ZL.sig_v[ci]}]*hv{ci}")
         E.w(f"hf{ci} = 1.0")
-        E.w(f"if {md} == 2.0:")
-        E.w(f"    hf{ci} = {E.P(f'joints.{jn}.friction.mu_s')}*Fn{ci} - abs(Ft{ci})")
-        E.w(f"g[{ZL.ev_f[ci]}] = z[{ZL.sig_f[ci]}]*hf{ci}")
-    if ZL.clamp and not hyb:
-        E.velocities(bias=False)
+    if hyb:
+        # stick margin mu_s Fn - |Ft|, from the dynamics, only when some joint sticks
+        E.w("if " + " or ".join(f"z[{ZL.mode[ci]}] == 2.0" for ci in hyb) + ":")
+        E.ind += 1
+        E.lines += ["    " * E.ind + ln[4:] for ln in body(False)]
+        for ci in hyb:
+            jn = t.clearance[ci]
+            E.w(f"if z[{ZL.mode[ci]}] == 2.0:")
+            E.w(f"    hf{ci} = {E.P(f'joints.{jn}.friction.mu_s')}*Fn{ci} - abs(Ft{ci})")
+        E.ind -= 1
+        for ci in hyb:
+            E.w(f"g[{ZL.ev_f[ci]}] = z[{ZL.sig_f[ci]}]*hf{ci}")
     for ci in ZL.clamp:
         jn = t.clearance[ci]
-        j = scene.joints[jn]
-        if not hyb:
-            E.world_point(t.body_index(j.bodies[0]), j.points[0], f"A{ci}", vel=True)
-            E.world_point(t.body_index(j.bodies[1]), j.points[1], f"B{ci}", vel=True)
         pre = f"joints.{jn}."
         E.w(f"exc = A{ci}x - B{ci}x; eyc = A{ci}y - B{ci}y; eccc = np.sqrt(exc*exc + eyc*eyc)")
         E.w(f"ddc = ((A{ci}vx - B{ci}vx)*exc + (A{ci}vy - B{ci}vy)*eyc)/eccc if eccc > 0.0 else 0.0")
@@ -1012,7 +1090,7 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         w(f"row[{ci_['driver.angle']}] = q{crank}; row[{ci_['driver.speed']}] = qd{crank}")
         if speed_mode:
             terms = []
-            if not (loops or hyb):
+            if not loops:
                 pos = {k: i for i, k in enumerate(S_obs)}
                 c = pos[crank]
                 for k in S:

@@ -49,7 +49,9 @@ class ContactLaw:
     *extra)`` (N), >= 0, 0 for delta <= 0. extra: the names of the arguments after n, from
     ``EXTRA_ARGUMENTS``. jump_at_onset: the force jumps at contact onset, so contact is a mode
     switched at located events (then ``unclamped`` is required: the force before its clamp at
-    zero, whose zero is the clamp event). conservative: the law stores and returns energy without
+    zero, whose zero is the clamp event; and ``mode_force``: the force the kernel runs while the
+    contact mode is on, continuous at delta <= 0, since the located onset has delta = 0 only to
+    the root tolerance). conservative: the law stores and returns energy without
     loss (the kernels' energy-balance checks use it). reference: the source, for docs and reports.
     """
     name: str
@@ -57,6 +59,7 @@ class ContactLaw:
     extra: tuple[str, ...] = ()
     jump_at_onset: bool = False
     unclamped: Callable | None = None
+    mode_force: Callable | None = None
     conservative: bool = False
     reference: str = ""
 
@@ -68,8 +71,9 @@ class ContactLaw:
         if self.jump_at_onset and self.onset_velocity:
             raise ValueError(f"contact law {self.name!r}: a law with jump_at_onset cannot take v_minus "
                              f"(its z slot holds the contact mode)")
-        if self.jump_at_onset and self.unclamped is None:
-            raise ValueError(f"contact law {self.name!r}: jump_at_onset needs the unclamped force")
+        if self.jump_at_onset and (self.unclamped is None or self.mode_force is None):
+            raise ValueError(f"contact law {self.name!r}: jump_at_onset needs the unclamped force "
+                             f"and the contact-mode force")
 
     @property
     def onset_velocity(self) -> bool:
@@ -78,7 +82,7 @@ class ContactLaw:
 
     def functions(self) -> list[Callable]:
         """The numba functions generated kernels call: the force, and the unclamped force."""
-        return [self.force] + ([self.unclamped] if self.unclamped is not None else [])
+        return [self.force] + [f for f in (self.unclamped, self.mode_force) if f is not None]
 
 
 _LAWS: dict[str, ContactLaw] = {}
