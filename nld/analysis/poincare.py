@@ -28,7 +28,7 @@ from nld.errors import InputError, Interrupted
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
-           "default_observables", "add_arguments", "cli_poincare"]
+           "default_observables"]
 
 TWO_PI = 2.0 * math.pi
 DEFAULT_PERIOD_TOL = 1e-6
@@ -587,97 +587,4 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
     for n in range(1, min(int(n_max), N // 2) + 1):
         if np.max(np.abs(Q[n:] - Q[:-n])) <= tol:
             return n
-    return 0
-
-
-# ---------------------------------------------------------------------------------------------------
-# command line (registered by nld.cli: see docs/analysis.md)
-
-
-def add_arguments(subparsers):
-    """Add ``nld poincare`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from nld.cli import _number_arg, _rtol_arg
-    sp = subparsers.add_parser(
-        "poincare", help="Poincaré section of a scene (stroboscopic or crank-angle)",
-        description="Poincaré section: the observables at every crank revolution after a transient "
-                    "(stroboscopic, speed-driven crank) or at each crossing of crank angle = "
-                    "THETA0 mod 2 pi (--angle, e.g. a torque-driven crank); prints the points and "
-                    "the detected period.")
-    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
-    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
-    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=100,
-                    metavar="N", help="crank revolutions discarded first (default 100)")
-    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=100, metavar="N",
-                    help="section points / revolutions after the transient (default 100)")
-    sp.add_argument("--observables", default=None, metavar="COLS",
-                    help="comma-separated table columns (default: <first clearance joint>.ex,.ey)")
-    sp.add_argument("--rtol", type=_rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
-    sp.add_argument("--angle", type=_number_arg("--angle", positive=False), default=None,
-                    metavar="THETA0", help="crank-angle section at THETA0 (rad) mod 2 pi instead "
-                                           "of the stroboscopic one")
-    sp.add_argument("--period-tol", type=_number_arg("--period-tol"), default=DEFAULT_PERIOD_TOL,
-                    metavar="TOL", help=f"relative tolerance of the period detection "
-                                        f"(default {DEFAULT_PERIOD_TOL:g})")
-    sp.add_argument("--out", metavar="FILE", help="write the points to FILE.csv or FILE.parquet "
-                                                 "(provenance in FILE.json / parquet metadata)")
-    sp.set_defaults(func=cli_poincare)
-    return sp
-
-
-def _count_arg(name: str, minimum: int):
-    import argparse
-
-    def conv(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not an integer") from None
-        if v < minimum:
-            raise argparse.ArgumentTypeError(f"{name} = {text}: must be >= {minimum}")
-        return v
-    conv.__name__ = name
-    return conv
-
-
-def cli_poincare(args) -> int:
-    """``nld poincare``: print (or write) the section points and the detected period."""
-    from nld.output.io import check_table_path, save_table
-    out = check_table_path(args.out) if args.out else None
-    try:
-        if args.angle is None:
-            sec = stroboscopic(args.scene, transient_revs=args.transient_revs, revs=args.revs,
-                               observables=args.observables, overrides=args.overrides,
-                               rtol=args.rtol, progress=args.progress)
-        else:
-            sec = hyperplane_section(args.scene, observable="driver.angle", level=args.angle,
-                                     transient_revs=args.transient_revs, revs=args.revs,
-                                     observables=args.observables, overrides=args.overrides,
-                                     rtol=args.rtol, progress=args.progress)
-    except Interrupted as e:
-        if e.partial is None or out is None:
-            raise
-        prov = dict(e.partial.provenance)
-        prov.update(partial=True, command=getattr(args, "command_line", None))
-        path = save_table(e.partial.table, out, prov)
-        raise Interrupted(str(e), kept=f"wrote the partial section ({e.kept}) to {path}, marked "
-                                       "partial in its provenance") from None
-    from nld.model.scene import load_scene
-    n = period_of(sec.points, tol=args.period_tol,
-                  scale=section_scales(load_scene(args.scene, args.overrides), sec.observables))
-    prov = dict(sec.provenance)
-    prov.update(period_detected=n, period_tol=args.period_tol,
-                command=getattr(args, "command_line", None))
-    if out is not None:
-        path = save_table(sec.table, out, prov)
-        print(f"wrote {len(sec.table)} section points to {path}")
-    else:
-        print(sec.table.to_string(index=False, float_format=lambda v: f"{v:.9g}"))
-    print(f"period: {n if n else 'none found (aperiodic or longer than 16)'} "
-          f"(tolerance {args.period_tol:g}); {sec.message}")
-    if not sec.success:
-        import sys
-        print(f"nld: error: integration failed: {sec.message}", file=sys.stderr)
-        return 1
     return 0

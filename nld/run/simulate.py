@@ -184,7 +184,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
     centre that it moves (so an angle error of one scale moves the journal by about one clearance);
     a slide or a floating position by c_min (m). Velocities take the same scale times the crank speed.
     """
-    from nld.model.assembly import _point, forward_poses
+    from nld.model.assembly import forward_poses, world_point
     sc, topo = kernel.scene, kernel.topo
     cl = [sc.joints[j].clearance for j in topo.clearance]
     cmin = min(cl) if cl else 1e-3
@@ -196,7 +196,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
         for b, pn in zip(j.bodies, j.points):
             bi = topo.body_index(b)
             if bi != GROUND:
-                centres.append((bi, _point(sc, topo.body_names, poses, zero, bi, pn)[0]))
+                centres.append((bi, world_point(sc, topo.body_names, poses, zero, bi, pn)[0]))
     pos = []
     for k in topo.independent:
         c = topo.coords[k]
@@ -207,7 +207,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
         if c.kind == "fth":
             pivot = poses[c.body, :2]
         else:
-            pivot = _point(sc, topo.body_names, poses, zero, e.parent, e.parent_point)[0]
+            pivot = world_point(sc, topo.body_names, poses, zero, e.parent, e.parent_point)[0]
         moved = [r for bi, r in centres if k in topo.ancestors(bi)]
         L = max([float(np.hypot(*(r - pivot))) for r in moved] + [0.0])
         if L <= 0.0:

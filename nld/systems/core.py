@@ -46,13 +46,13 @@ from nld.integrators.events import EVENT_SAMPLES, check_event_samples
 from nld.integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
-           "lorenz", "duffing", "logistic", "henon", "linear"]
+           "lorenz", "duffing", "logistic", "henon", "linear", "SYSTEM_METHODS", "check_system_method"]
 
 DEFAULT_MAX_STEPS = 50_000_000
 SYSTEM_METHODS = ("dopri5", "dop853", "rodas")
 
 
-def _check_system_method(method, field: str = "method") -> str:
+def check_system_method(method, field: str = "method") -> str:
     """``method`` if it is one of SYSTEM_METHODS, else InputError naming ``field``."""
     if method not in SYSTEM_METHODS:
         raise InputError(f"{field} = {method!r}: must be one of {', '.join(SYSTEM_METHODS)}")
@@ -147,7 +147,7 @@ class ContinuousSystem:
                  n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
                  t0: float = 0.0, method: str = "dopri5", jacobian=None, jvp: str = "auto",
                  memory=(), period_name: str = "forcing period", event_samples: int | None = None):
-        self.method = _check_system_method(method)
+        self.method = check_system_method(method)
         self.event_samples = (EVENT_SAMPLES if event_samples is None
                               else check_event_samples(event_samples))
         if jvp not in ("auto", "autodiff", "fd"):
@@ -563,7 +563,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
         period = None
     mod = kern.module
     solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
-             "rodas": mod.solve_rodas}[_check_system_method(method)]
+             "rodas": mod.solve_rodas}[check_system_method(method)]
     from nld.kernel.codegen import NEEDS_VMINUS
     memory = [ci for ci, jn in enumerate(kern.topo.clearance)
               if scene.joints[jn].contact.law in NEEDS_VMINUS]
