@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError, Interrupted
+from nld.settings import LYAPUNOV, POINCARE_SPANS, SECTIONS
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
@@ -33,7 +34,7 @@ __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", 
 TWO_PI = 2.0 * math.pi
 DEFAULT_PERIOD_TOL = 1e-6
 DEFAULT_N_MAX = 16
-DEFAULT_SAMPLES_PER_REV = 360
+DEFAULT_SAMPLES_PER_REV = SECTIONS.samples_per_rev
 
 
 @dataclass
@@ -133,9 +134,10 @@ def _system_observables(system):
 # stroboscopic map
 
 
-def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observables=None,
-                 overrides=None, rtol: float = 1e-8, y0=None, z0=None, kernel=None,
-                 max_steps: int = 50_000_000, progress: bool | None = None) -> Section:
+def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
+                 revs: int = POINCARE_SPANS.revs, observables=None,
+                 overrides=None, rtol: float = SECTIONS.rtol, y0=None, z0=None, kernel=None,
+                 max_steps: int = SECTIONS.max_steps, progress: bool | None = None) -> Section:
     """Stroboscopic Poincaré map: observables at t = k T, k = transient_revs .. transient_revs+revs-1.
 
     scene: Scene, built-in name or TOML path (``overrides`` as ``nld --set``) of a mechanism with
@@ -250,9 +252,10 @@ def _system_provenance(system, **extra) -> dict:
     return d
 
 
-def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = 100, revs: int = 100,
-                     rtol: float = 1e-10, state_names=None, scales=None, name: str = "ode",
-                     observables=None, max_steps: int = 50_000_000, solve=None) -> Section:
+def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = POINCARE_SPANS.transient_revs,
+                     revs: int = POINCARE_SPANS.revs, rtol: float = LYAPUNOV.rtol,
+                     state_names=None, scales=None, name: str = "ode",
+                     observables=None, max_steps: int = LYAPUNOV.max_steps, solve=None) -> Section:
     """Stroboscopic map of any T-periodic ODE given as a numba ``rhs(t, y, p, z, dy)``.
 
     The ODE is wrapped in :class:`nld.systems.ContinuousSystem` (DOPRI5 of
@@ -326,9 +329,9 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
                        direction: int = 1, modulo: float | None = None, transient_revs: float = 0.0,
                        revs: float | None = None, t_transient: float | None = None,
                        t_end: float | None = None, observables=None, overrides=None,
-                       rtol: float = 1e-8, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
+                       rtol: float = SECTIONS.rtol, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
                        dt: float | None = None, y0=None, z0=None, refine: bool = True,
-                       kernel=None, max_steps: int = 50_000_000,
+                       kernel=None, max_steps: int = SECTIONS.max_steps,
                        progress: bool | None = None) -> Section:
     """Poincaré section at the crossings of ``observable`` through ``level`` in ``direction``.
 

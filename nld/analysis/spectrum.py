@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError
+from nld.settings import SPECTRUM, SPECTRUM_SPANS
 
 __all__ = ["spectrum", "peaks", "table_spectrum", "scene_spectrum", "resample_uniform",
            "crank_frequency_of"]
@@ -231,8 +232,9 @@ def table_spectrum(table: pd.DataFrame, observable: str | None = None, *, transi
     return spec
 
 
-def scene_spectrum(scene, observable: str | None = None, *, overrides=None, revs: float = 50,
-                   transient_revs: float = 10, samples_per_rev: int = 720, rtol: float = 1e-8,
+def scene_spectrum(scene, observable: str | None = None, *, overrides=None,
+                   revs: float = SPECTRUM_SPANS.revs, transient_revs: float = SPECTRUM_SPANS.transient_revs,
+                   samples_per_rev: int = SPECTRUM.samples_per_rev, rtol: float = SPECTRUM.rtol,
                    method: str = "welch", window="hann", nperseg: int | None = None):
     """Simulate ``scene`` for transient_revs + revs crank revolutions (``samples_per_rev`` output
     points per revolution: Nyquist = samples_per_rev/2 crank orders) and return

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from nld.cli.args import count_arg, rtol_arg, scene_args, values_arg
+from nld.settings import BIFURCATION_SPANS, SECTIONS
 
 
 def add_parser(sub):
@@ -17,14 +18,14 @@ def add_parser(sub):
     sp.add_argument("--values", required=True, type=values_arg, metavar="START:STOP:NUM|V1,V2,...",
                     help="values: START:STOP:NUM (ends included) or a comma-separated list")
     sp.add_argument("--out", required=True, metavar="DIR", help="output directory (parquet per point)")
-    sp.add_argument("--transient-revs", type=count_arg("--transient-revs", 0), default=100,
-                    metavar="N", help="revolutions discarded per point (default 100)")
-    sp.add_argument("--revs", type=count_arg("--revs", 1), default=50, metavar="N",
-                    help="section points per value (default 50)")
+    sp.add_argument("--transient-revs", type=count_arg("--transient-revs", 0), default=BIFURCATION_SPANS.transient_revs, metavar="N",
+                    help=f"revolutions discarded per point (default {BIFURCATION_SPANS.transient_revs})")
+    sp.add_argument("--revs", type=count_arg("--revs", 1), default=BIFURCATION_SPANS.revs, metavar="N",
+                    help=f"section points per value (default {BIFURCATION_SPANS.revs})")
     sp.add_argument("--observables", default=None, metavar="COLS",
                     help="comma-separated table columns (default <first clearance joint>.ex,.ey)")
-    sp.add_argument("--rtol", type=rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
+    sp.add_argument("--rtol", type=rtol_arg, default=SECTIONS.rtol, metavar="R",
+                    help=f"relative tolerance (default {SECTIONS.rtol:g})")
     sp.add_argument("--continuation", action="store_true",
                     help="start each point from the previous point's final state (sequential)")
     sp.add_argument("--up-down", action="store_true",

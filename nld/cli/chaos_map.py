@@ -7,6 +7,7 @@ from pathlib import Path
 
 from nld.cli.args import count_arg, number_arg, rtol_arg, values_arg
 from nld.errors import InputError
+from nld.settings import BENETTIN, CHAOS_MAP_SPANS, LYAPUNOV
 
 
 def add_parser(sub):
@@ -31,14 +32,14 @@ def add_parser(sub):
                     metavar="START:STOP:NUM|V1,V2,...", help="y values")
     sp.add_argument("--out", required=True, metavar="DIR",
                     help="output directory (parquet per cell + provenance.json)")
-    sp.add_argument("--transient-revs", type=count_arg("--transient-revs", 0), default=20,
-                    metavar="N", help="revolutions discarded per cell (default 20)")
-    sp.add_argument("--revs", type=count_arg("--revs", 1), default=100, metavar="N",
-                    help="section points per cell (default 100; the 0-1 test needs >= 30)")
+    sp.add_argument("--transient-revs", type=count_arg("--transient-revs", 0), default=CHAOS_MAP_SPANS.transient_revs, metavar="N",
+                    help=f"revolutions discarded per cell (default {CHAOS_MAP_SPANS.transient_revs})")
+    sp.add_argument("--revs", type=count_arg("--revs", 1), default=CHAOS_MAP_SPANS.revs, metavar="N",
+                    help=f"section points per cell (default {CHAOS_MAP_SPANS.revs}; the 0-1 test needs >= 30)")
     sp.add_argument("--lyapunov-revs", type=count_arg("--lyapunov-revs", 2), default=None,
                     metavar="N", help="revolutions of the exponent estimate (default --revs)")
-    sp.add_argument("--rtol", type=rtol_arg, default=1e-10, metavar="R",
-                    help="relative tolerance (default 1e-10; see docs/analysis.md before raising it)")
+    sp.add_argument("--rtol", type=rtol_arg, default=LYAPUNOV.rtol, metavar="R",
+                    help=f"relative tolerance (default {LYAPUNOV.rtol:g}; see docs/analysis.md before raising it)")
     sp.add_argument("--lyapunov-rtol", type=rtol_arg, default=None, metavar="R",
                     help="relative tolerance of the exponent (default --rtol)")
     sp.add_argument("--rtol-check", type=rtol_arg, default=None, metavar="R",
@@ -47,12 +48,12 @@ def add_parser(sub):
     sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
                     help="estimator of the exponent: tangent dynamics with saltation (default) "
                          "or two trajectories (benettin)")
-    sp.add_argument("--lyapunov-method", choices=("dopri5", "dop853", "rodas"), default="dopri5",
-                    help="integrator of the exponent (default dopri5; dop853 and rodas only with "
+    sp.add_argument("--lyapunov-method", choices=("dopri5", "dop853", "rodas"), default=LYAPUNOV.method,
+                    help=f"integrator of the exponent (default {LYAPUNOV.method}; dop853 and rodas only with "
                          "--estimator benettin; rodas is experimental and slow on contact "
                          "scenes, see docs/lyapunov.md)")
     sp.add_argument("--d0", type=number_arg("--d0"), default=None, metavar="D0",
-                    help="initial separation of --estimator benettin, scaled norm (default 1e-4)")
+                    help=f"initial separation of --estimator benettin, scaled norm (default {BENETTIN.d0:g})")
     sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
     sp.add_argument("--observable", default=None, metavar="COL",
                     help="section observable of the 0-1 test (default <first clearance joint>.ex)")

@@ -5,6 +5,7 @@ import math
 
 from nld.cli.args import progress_kw
 from nld.errors import InputError
+from nld.settings import BENETTIN, LYAPUNOV, TANGENT, TANGENT_SPANS
 
 
 def add_parser(sub) -> None:
@@ -18,35 +19,40 @@ def add_parser(sub) -> None:
     sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a TOML file")
     sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                     help="override a scene value (repeatable)")
-    sp.add_argument("--transient", type=float, default=20.0, metavar="REVS",
-                    help="transient in crank revolutions (default 20)")
-    sp.add_argument("--revs", type=float, default=200.0, metavar="REVS",
-                    help="averaging length in crank revolutions (default 200; the minimum with "
+    sp.add_argument("--transient", type=float, default=TANGENT_SPANS.transient_revs, metavar="REVS",
+                    help=f"transient in crank revolutions (default {TANGENT_SPANS.transient_revs:g})")
+    sp.add_argument("--revs", type=float, default=TANGENT_SPANS.revs, metavar="REVS",
+                    help=f"averaging length in crank revolutions (default {TANGENT_SPANS.revs:g}; the minimum with "
                          "--target-uncertainty)")
-    sp.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance (default 1e-10)")
+    sp.add_argument("--rtol", type=float, default=LYAPUNOV.rtol,
+                    help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
     sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
                     help="tangent dynamics with saltation (default) or two trajectories (Benettin)")
     sp.add_argument("--k", type=int, default=1, metavar="K",
                     help="number of exponents (tangent estimator; default 1)")
     sp.add_argument("--renorm", type=float, default=None, metavar="REVS",
-                    help="re-orthonormalisation interval in revolutions (default 1/8 for the "
-                         "tangent estimator, 1 with 32 checks for Benettin)")
-    sp.add_argument("--target-uncertainty", type=float, default=None, metavar="REL",
+                    help=f"re-orthonormalisation interval in revolutions (default "
+                         f"{TANGENT.interval_revs:g} for the tangent estimator, "
+                         f"{BENETTIN.interval_revs:g} with {BENETTIN.checks_per_period} checks for "
+                         "Benettin)")
+    sp.add_argument("--target-uncertainty", type=float, default=TANGENT.target_uncertainty,
+                    metavar="REL",
                     help="average until the relative uncertainty of lambda1 is REL (e.g. 0.05) or "
                          "--max-revs is reached, and say which")
     sp.add_argument("--max-revs", type=float, default=None, metavar="REVS",
-                    help="limit of the averaging with --target-uncertainty (default 10 x --revs)")
+                    help=f"limit of the averaging with --target-uncertainty (default "
+                         f"{TANGENT.max_total_factor:g} x --revs)")
     sp.add_argument("--check", action="store_true",
                     help="also compute lambda1 with the other estimator and report the agreement")
     sp.add_argument("--state-error-only", action="store_true",
                     help="tangent estimator: only the state takes part in the step-size control "
                          "(about half the CPU time; same exponents on every case of "
                          "benchmarks/results/lyapunov.md)")
-    sp.add_argument("--d0", type=float, default=1e-4,
-                    help="initial separation of the Benettin estimator, scaled norm (default 1e-4)")
+    sp.add_argument("--d0", type=float, default=BENETTIN.d0,
+                    help=f"initial separation of the Benettin estimator, scaled norm (default {BENETTIN.d0:g})")
     sp.add_argument("--seed", type=int, default=0, help="seed of the initial perturbation (default 0)")
-    sp.add_argument("--method", choices=("dopri5", "dop853", "rodas"), default="dopri5",
-                    help="integrator of the Benettin trajectories (default dopri5; the tangent "
+    sp.add_argument("--method", choices=("dopri5", "dop853", "rodas"), default=LYAPUNOV.method,
+                    help=f"integrator of the Benettin trajectories (default {LYAPUNOV.method}; the tangent "
                          "estimator always uses its DOPRI5; rodas is experimental)")
     sp.add_argument("--spectrum", type=int, default=0, metavar="K",
                     help="also the first K exponents by the perturbation-vector method")

@@ -4,6 +4,7 @@ from __future__ import annotations
 from nld.analysis.poincare import DEFAULT_PERIOD_TOL
 from nld.cli.args import count_arg, number_arg, print_error, rtol_arg, scene_args
 from nld.errors import Interrupted
+from nld.settings import POINCARE_SPANS, SECTIONS
 
 
 def add_parser(sub):
@@ -15,14 +16,14 @@ def add_parser(sub):
                     "THETA0 mod 2 pi (--angle, e.g. a torque-driven crank); prints the points and "
                     "the detected period.")
     scene_args(sp)
-    sp.add_argument("--transient-revs", type=count_arg("--transient-revs", 0), default=100,
-                    metavar="N", help="crank revolutions discarded first (default 100)")
-    sp.add_argument("--revs", type=count_arg("--revs", 1), default=100, metavar="N",
-                    help="section points / revolutions after the transient (default 100)")
+    sp.add_argument("--transient-revs", type=count_arg("--transient-revs", 0), default=POINCARE_SPANS.transient_revs, metavar="N",
+                    help=f"crank revolutions discarded first (default {POINCARE_SPANS.transient_revs})")
+    sp.add_argument("--revs", type=count_arg("--revs", 1), default=POINCARE_SPANS.revs, metavar="N",
+                    help=f"section points / revolutions after the transient (default {POINCARE_SPANS.revs})")
     sp.add_argument("--observables", default=None, metavar="COLS",
                     help="comma-separated table columns (default: <first clearance joint>.ex,.ey)")
-    sp.add_argument("--rtol", type=rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
+    sp.add_argument("--rtol", type=rtol_arg, default=SECTIONS.rtol, metavar="R",
+                    help=f"relative tolerance (default {SECTIONS.rtol:g})")
     sp.add_argument("--angle", type=number_arg("--angle", positive=False), default=None,
                     metavar="THETA0", help="crank-angle section at THETA0 (rad) mod 2 pi instead "
                                            "of the stroboscopic one")

@@ -6,10 +6,10 @@ import time
 
 from nld.cli.args import count_arg, number_arg, print_error, print_interrupted, rtol_arg, scene_args
 from nld.errors import InputError, Interrupted
+from nld.settings import SIMULATE
 
 
 def add_parser(sub) -> None:
-    from nld.run.simulate import DEFAULT_RTOL, DEFAULT_SAMPLES_PER_REV
     sp = sub.add_parser("simulate", help="simulate a scene",
                         description="Simulate a scene (adaptive Dormand-Prince 5(4)); with --ideal, "
                                     "evaluate its ideal-joint twin at the same output times instead.")
@@ -19,10 +19,10 @@ def add_parser(sub) -> None:
                    help="crank revolutions to simulate (default 1)")
     g.add_argument("--t-end", type=number_arg("--t-end"), metavar="T", help="end time (s)")
     sp.add_argument("--rtol", type=rtol_arg, default=None, metavar="R",
-                    help=f"relative tolerance (default: the scene's recommended rtol, else {DEFAULT_RTOL:g})")
+                    help=f"relative tolerance (default: the scene's recommended rtol, else {SIMULATE.rtol:g})")
     sp.add_argument("--samples-per-rev", type=count_arg("--samples-per-rev", 1),
-                    default=DEFAULT_SAMPLES_PER_REV, metavar="N",
-                    help=f"output samples per crank revolution (default {DEFAULT_SAMPLES_PER_REV})")
+                    default=SIMULATE.samples_per_rev, metavar="N",
+                    help=f"output samples per crank revolution (default {SIMULATE.samples_per_rev})")
     sp.add_argument("--ideal", action="store_true",
                     help="ideal-joint reference solution (nld.model.ideal) at the same output times")
     sp.add_argument("--out", metavar="FILE", help="write the table to FILE.csv or FILE.parquet "

@@ -4,6 +4,7 @@ from __future__ import annotations
 from nld.analysis.spectrum import METHODS
 from nld.cli.args import count_arg, number_arg, rtol_arg
 from nld.errors import InputError
+from nld.settings import SPECTRUM, SPECTRUM_SPANS
 
 
 def add_parser(sub):
@@ -20,14 +21,16 @@ def add_parser(sub):
                     help="analyse a saved run (FILE.csv / FILE.parquet of nld simulate --out)")
     sp.add_argument("--observable", default=None, metavar="COL",
                     help="table column (default: <first clearance joint>.Fn)")
-    sp.add_argument("--revs", type=number_arg("--revs"), default=50.0, metavar="N",
-                    help="revolutions analysed after the transient (default 50)")
+    sp.add_argument("--revs", type=number_arg("--revs"), default=float(SPECTRUM_SPANS.revs),
+                    metavar="N", help=f"revolutions analysed after the transient (default {SPECTRUM_SPANS.revs:g})")
     sp.add_argument("--transient-revs", type=number_arg("--transient-revs", positive=False),
-                    default=10.0, metavar="N", help="revolutions dropped first (default 10)")
-    sp.add_argument("--samples-per-rev", type=count_arg("--samples-per-rev", 2), default=720, metavar="N",
-                    help="output samples per revolution (default 720: orders up to 360)")
-    sp.add_argument("--rtol", type=rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
+                    default=float(SPECTRUM_SPANS.transient_revs), metavar="N",
+                    help=f"revolutions dropped first (default {SPECTRUM_SPANS.transient_revs:g})")
+    sp.add_argument("--samples-per-rev", type=count_arg("--samples-per-rev", 2), default=SPECTRUM.samples_per_rev,
+                    metavar="N", help=f"output samples per revolution (default {SPECTRUM.samples_per_rev}: "
+                                      f"orders up to {SPECTRUM.samples_per_rev // 2})")
+    sp.add_argument("--rtol", type=rtol_arg, default=SPECTRUM.rtol, metavar="R",
+                    help=f"relative tolerance (default {SPECTRUM.rtol:g})")
     sp.add_argument("--method", choices=METHODS, default="welch", help="welch (default) or fft")
     sp.add_argument("--window", default="hann", help="scipy window name (default hann)")
     sp.add_argument("--nperseg", type=count_arg("--nperseg", 8), default=None, metavar="N",

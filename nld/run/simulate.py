@@ -16,11 +16,12 @@ from nld.errors import InputError, InputTypeError, Interrupted, SolveError
 from nld.interrupt import deferred
 from nld.kernel.compile import Kernel, compile_scene
 from nld.progress import progress_bar
+from nld.settings import SIMULATE
 from nld.model.scene_model import Scene
 from nld.model.topology import GROUND
 
-DEFAULT_RTOL = 1e-8
-DEFAULT_SAMPLES_PER_REV = 360
+DEFAULT_RTOL = SIMULATE.rtol                           # when the scene recommends none
+DEFAULT_SAMPLES_PER_REV = SIMULATE.samples_per_rev
 DEFAULT_CHUNK_REVS = 1.0
 INTERRUPTED = -9               # status of a run stopped by Ctrl-C (SIGINT), see integrate_chunked
 MAX_OUTPUT_BYTES = 4 * 2**30   # refuse a run whose output table alone would exceed this
@@ -260,7 +261,7 @@ def tolerances(kernel: Kernel, q0: np.ndarray, rtol: float) -> np.ndarray:
 def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | None = None,
              rtol: float | None = None, t_eval=None, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
              overrides=None, y0=None, z0=None, t0: float = 0.0, land: bool = False,
-             max_steps: int = 50_000_000, hmax: float | None = None, kernel: Kernel | None = None,
+             max_steps: int = SIMULATE.max_steps, hmax: float | None = None, kernel: Kernel | None = None,
              raise_on_failure: bool = False, method: str | None = None,
              chunk_revs: float | None = DEFAULT_CHUNK_REVS, progress: bool | None = None,
              event_samples: int | None = None) -> SimulationResult:

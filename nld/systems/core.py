@@ -43,12 +43,13 @@ from nld.integrators.dop853 import dop853
 from nld.integrators import method_status_message
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
 from nld.integrators.events import EVENT_SAMPLES, check_event_samples
+from nld.settings import LYAPUNOV
 from nld.integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
            "lorenz", "duffing", "logistic", "henon", "linear", "SYSTEM_METHODS", "check_system_method"]
 
-DEFAULT_MAX_STEPS = 50_000_000
+DEFAULT_MAX_STEPS = LYAPUNOV.max_steps
 SYSTEM_METHODS = ("dopri5", "dop853", "rodas")
 
 
@@ -311,7 +312,7 @@ def period_shift(system, t: float) -> float:
     return math.floor((t - system.t0) / system.period) * system.period
 
 
-def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 1e-10, *,
+def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = LYAPUNOV.rtol, *,
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
     """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
     DOPRI5 by default); returns (y(t1), z(t1)).
@@ -582,7 +583,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
 
 
 def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
-               rtol: float = 1e-10):
+               rtol: float = LYAPUNOV.rtol):
     """States sampled every dt after a transient: (t, Y), Y[i] = y(t0 + transient + i dt).
 
     Flows: DOPRI5 with dense output (t in s). Maps: dt is ignored, Y[i] = x_{transient + i}.
