@@ -21,6 +21,13 @@ resumes), 141 when the reader of stdout went away (``nld scenes | head -1``: no 
 ``yes | head -1``; 128 + SIGPIPE, the status of a program killed by SIGPIPE).
 ``main(argv)`` returns the status instead of exiting, for tests.
 
+Layout: the only package of nld that knows argparse. ``app`` assembles the parser from one module
+per command (``scenes`` for scenes and show, ``simulate``, ``poincare``, ``bifurcation``,
+``spectrum``, ``chaos_map``, ``lyapunov``, ``hard_cases``, ``study``; each has ``add_parser(sub)``
+and ``cmd_*(args)``) and holds :func:`main`; ``args`` holds what they share (the parser class
+with one-line errors, argument types, the scene and progress options, the stderr messages).
+Option defaults come from :mod:`nld.settings`, as the API's do.
+
 Every command takes ``--quiet`` (no progress bars) and ``--progress`` (progress bars on stderr
 even when it is not a terminal); by default long work shows a bar only on a terminal
 (``nld.progress``).
