@@ -78,7 +78,7 @@ def kernel_dependencies() -> list[Path]:
     here = Path(__file__).resolve().parent.parent          # nld/
     files = [here / f for f in ("kernel/codegen.py", "kernel/autodiff.py", "model/topology.py",
                                 "model/parameters.py", "kernel/support.py", "laws/contact.py",
-                                "laws/friction.py")]
+                                "laws/friction.py", "settings.py")]   # settings: EVENT_SAMPLES
     return files + sorted((here / "integrators").glob("*.py"))
 
 
