@@ -18,7 +18,7 @@ NLD = Path(__file__).resolve().parent.parent / "nld"
 
 # The pipeline, bottom to top; a package may import from packages of the same or a lower layer.
 LAYERS = [
-    {"nld.version", "nld.errors", "nld.interrupt", "nld.progress"},   # cross-cutting
+    {"nld.version", "nld.errors", "nld.interrupt", "nld.progress", "nld.settings"},  # cross-cutting
     {"nld.model", "nld.laws", "nld.integrators", "nld.output",        # data, laws, methods, output,
      "nld.sweeps"},                                                    # the sweep engine
     {"nld.kernel"},                                                   # scene -> compiled kernel

@@ -269,18 +269,7 @@ def test_plot_draws_the_onset_contour(reference):
 
 
 def test_cli_chaos_map(monkeypatch, capsys, tmp_path):
-    import argparse
     from nld import cli
-    from nld.analysis import chaos_map as cm
-    build = cli.build_parser
-
-    def build_parser():
-        p = build()
-        sub = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
-        if "chaos-map" not in sub.choices:
-            cm.add_arguments(sub)
-        return p
-    monkeypatch.setattr(cli, "build_parser", build_parser)
     out = tmp_path / "cli"
     args = ["chaos-map", SCENE, "--x", PX, "--x-values", "5e-4", "--y", PY, "--y-values", "0:0.1:2",
             "--transient-revs", "1", "--revs", "2", "--lyapunov-revs", "2", "--rtol", "1e-8",

@@ -134,13 +134,14 @@ def test_stiff_rodas_at_tight_tolerance_succeeds():
 
 
 def test_main_prints_reports(capsys):
-    assert hc.main(["--quick", "stiff_damped_dop853"]) == 0
+    from nld.cli import main
+    assert main(["hard-cases", "--quick", "stiff_damped_dop853"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("stiff_damped_dop853: PASS") and "became stiff" in out
-    assert hc.main(["--list"]) == 0
+    assert main(["hard-cases", "--list"]) == 0
     out = capsys.readouterr().out
     assert all(f"{n}:" in out for n in CASES)
-    assert hc.main(["no_such_case"]) == 2
+    assert main(["hard-cases", "no_such_case"]) == 2
     assert "no_such_case" in capsys.readouterr().err
 
 

@@ -215,22 +215,9 @@ def test_section_plots():
 
 
 def _patched_cli(monkeypatch):
-    """nld.cli with the analysis sub-commands registered (as the lead wires them in cli.py)."""
-    import argparse
+    """nld.cli (kept as a helper of the CLI tests of poincare, bifurcation and spectrum: the
+    analysis sub-commands are registered by nld.cli.app itself)."""
     from nld import cli
-    from nld.analysis import bifurcation
-    from nld.analysis import poincare
-    from nld.analysis import spectrum
-    build = cli.build_parser
-
-    def build_parser():
-        p = build()
-        sub = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
-        for mod, name in ((poincare, "poincare"), (bifurcation, "bifurcation"), (spectrum, "spectrum")):
-            if name not in sub.choices:
-                mod.add_arguments(sub)
-        return p
-    monkeypatch.setattr(cli, "build_parser", build_parser)
     return cli
 
 

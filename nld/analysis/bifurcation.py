@@ -49,7 +49,7 @@ import pandas as pd
 from nld.errors import InputError
 from nld.sweeps.store import META_KEY, PROVENANCE, ResultStore  # noqa: F401 - META_KEY re-exported
 
-__all__ = ["sweep", "load_sweep", "parse_values", "add_arguments", "cli_bifurcation"]
+__all__ = ["sweep", "load_sweep", "parse_values", "check_values"]
 
 DIRECTIONS = ("up", "down")
 # settings that must match for resume=True
@@ -394,51 +394,6 @@ def _run_chain(spec, points, done, store, finished):
             y = z = None
 
 
-# ---------------------------------------------------------------------------------------------------
-# command line (registered by nld.cli: see docs/analysis.md)
-
-
-def add_arguments(subparsers):
-    """Add ``nld bifurcation`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from nld.cli import _rtol_arg
-    from nld.analysis.poincare import _count_arg
-    sp = subparsers.add_parser(
-        "bifurcation", help="bifurcation sweep of a scene parameter (stroboscopic points)",
-        description="Sweep one scene value (any --set key) and record the stroboscopic Poincaré "
-                    "points after a transient, a period estimate and optionally the largest "
-                    "Lyapunov exponent, one parquet file per point in --out DIR.")
-    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
-    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
-    sp.add_argument("--param", required=True, metavar="KEY",
-                    help="the swept value, a --set key such as driver.speed")
-    sp.add_argument("--values", required=True, type=_values_arg, metavar="START:STOP:NUM|V1,V2,...",
-                    help="values: START:STOP:NUM (ends included) or a comma-separated list")
-    sp.add_argument("--out", required=True, metavar="DIR", help="output directory (parquet per point)")
-    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=100,
-                    metavar="N", help="revolutions discarded per point (default 100)")
-    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=50, metavar="N",
-                    help="section points per value (default 50)")
-    sp.add_argument("--observables", default=None, metavar="COLS",
-                    help="comma-separated table columns (default <first clearance joint>.ex,.ey)")
-    sp.add_argument("--rtol", type=_rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
-    sp.add_argument("--continuation", action="store_true",
-                    help="start each point from the previous point's final state (sequential)")
-    sp.add_argument("--up-down", action="store_true",
-                    help="sweep up then down (hysteresis; use with --continuation)")
-    sp.add_argument("--workers", type=_count_arg("--workers", 1), default=None, metavar="N",
-                    help="local worker processes (default: CPU count)")
-    sp.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a Dask cluster at this scheduler address instead")
-    sp.add_argument("--resume", action="store_true", help="skip the points already in --out")
-    sp.add_argument("--lyapunov", action="store_true",
-                    help="also the largest Lyapunov exponent of every point (slower)")
-    sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
-                    help="estimator of --lyapunov: tangent dynamics with saltation (default) or "
-                         "two trajectories (benettin)")
-    sp.set_defaults(func=cli_bifurcation)
-    return sp
 
 
 def check_values(scene, overrides, keys, values, option: str) -> None:
@@ -461,39 +416,3 @@ def check_values(scene, overrides, keys, values, option: str) -> None:
             scene_from_dict(raw, sc.source)
         except (SceneError, InputError) as e:
             raise InputError(f"{option}: the value {v!r} is refused by the scene: {e}") from None
-
-
-def _values_arg(text: str):
-    import argparse
-    try:
-        return parse_values(text)
-    except InputError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def cli_bifurcation(args) -> int:
-    """``nld bifurcation``: run the sweep, print one line per point and the output directory."""
-    import sys
-
-    from nld.progress import write
-
-    def on_point(k, n, rec):
-        per = rec["table"]["period"].iloc[0]
-        write(f"[{k}/{n}] {args.param} = {rec['value']!s} ({rec['direction']}): {rec['status']}, "
-              f"period {per if per else '-'} ({rec['wall']:.3g} s)"
-              + (f": {rec['message']}" if rec["status"] != "ok" else ""))
-
-    check_values(args.scene, args.overrides, [args.param], args.values, "--values")
-    df = sweep(args.scene, args.param, args.values, transient_revs=args.transient_revs,
-               revs=args.revs, observables=args.observables, rtol=args.rtol,
-               continuation=args.continuation, up_down=args.up_down, workers=args.workers,
-               dask=args.dask, out=args.out, resume=args.resume, lyapunov=args.lyapunov,
-               lyapunov_estimator=args.estimator, overrides=args.overrides,
-               progress=args.progress, on_point=on_point)
-    pts = df.drop_duplicates(["direction", "index"])
-    n_failed = int((pts["status"] != "ok").sum())
-    print(f"wrote {len(pts)} points to {args.out} (read with nld.analysis.bifurcation.load_sweep)")
-    if n_failed:
-        print(f"nld: warning: {n_failed} of {len(pts)} points failed (status 'failed' in the table)",
-              file=sys.stderr)
-    return 1 if n_failed == len(pts) else 0

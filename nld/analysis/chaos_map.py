@@ -68,8 +68,7 @@ from nld.analysis import bifurcation as _bif
 from nld.errors import InputError
 from nld.sweeps.store import ResultStore
 
-__all__ = ["chaos_map", "load_chaos_map", "chaos_map_plot", "param_label", "SUMMARY_COLUMNS",
-           "add_arguments", "cli_chaos_map"]
+__all__ = ["chaos_map", "load_chaos_map", "chaos_map_plot", "param_label", "SUMMARY_COLUMNS"]
 
 DIRECTION = "grid"
 SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolution",
@@ -348,8 +347,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: in
     if d0 is not None and not (isinstance(d0, (int, float)) and math.isfinite(d0) and d0 > 0):
         raise InputError(f"d0 = {d0!r}: must be a positive number")
     zero_one = dict(zero_one or {})
-    from nld.systems.core import _check_system_method
-    lyapunov_method = _check_system_method(lyapunov_method, "lyapunov_method")
+    from nld.systems.core import check_system_method
+    lyapunov_method = check_system_method(lyapunov_method, "lyapunov_method")
     from nld.analysis.lyapunov import ESTIMATORS
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator = {estimator!r}: must be one of {', '.join(ESTIMATORS)}")
@@ -487,10 +486,10 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
     """
     from matplotlib.colors import TwoSlopeNorm
     from matplotlib.patches import Rectangle
-    from nld.output.plots import _figure, unit_of
+    from nld.output.plots import figure_axes, unit_of
     if value not in ("lambda", "K"):
         raise InputError(f"value = {value!r}: 'lambda' or 'K'")
-    fig, ax = _figure(ax)
+    fig, ax = figure_axes(ax)
     xs = np.sort(df["x"].astype(float).unique())
     ys = np.sort(df["y"].astype(float).unique())
     ix = np.searchsorted(xs, df["x"].astype(float))
@@ -572,129 +571,3 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
     if title:
         ax.set_title(title)
     return fig
-
-
-# ---------------------------------------------------------------------------------------------------
-# command line (registered by nld.cli: ``chaos_map.add_arguments(sub)``, see docs/analysis.md)
-
-
-def add_arguments(subparsers):
-    """Add ``nld chaos-map`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from nld.analysis.bifurcation import _values_arg
-    from nld.cli import _number_arg, _rtol_arg
-    from nld.analysis.poincare import _count_arg
-    sp = subparsers.add_parser(
-        "chaos-map", help="largest Lyapunov exponent over a grid of two scene parameters",
-        description="Two-parameter chaos map: for every cell of the grid --x-values x --y-values "
-                    "(any two --set keys, e.g. joints.B.clearance and joints.B.friction.mu) a "
-                    "stroboscopic section, the largest Lyapunov exponent (Benettin) from its end "
-                    "and the 0-1 test of the section; one parquet file per cell in --out DIR "
-                    "(resumable), optionally a heat map with the onset boundary lambda = 0.")
-    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
-    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a scene value before the grid, e.g. driver.speed=300 (repeatable)")
-    sp.add_argument("--x", required=True, metavar="KEY[,KEY...]",
-                    help="x parameter: a --set key, or comma-separated keys set to the same value "
-                         "(e.g. joints.A.clearance,joints.B.clearance)")
-    sp.add_argument("--x-values", required=True, type=_values_arg,
-                    metavar="START:STOP:NUM|V1,V2,...", help="x values (ends included) or a list")
-    sp.add_argument("--y", required=True, metavar="KEY[,KEY...]", help="y parameter (as --x)")
-    sp.add_argument("--y-values", required=True, type=_values_arg,
-                    metavar="START:STOP:NUM|V1,V2,...", help="y values")
-    sp.add_argument("--out", required=True, metavar="DIR",
-                    help="output directory (parquet per cell + provenance.json)")
-    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=20,
-                    metavar="N", help="revolutions discarded per cell (default 20)")
-    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=100, metavar="N",
-                    help="section points per cell (default 100; the 0-1 test needs >= 30)")
-    sp.add_argument("--lyapunov-revs", type=_count_arg("--lyapunov-revs", 2), default=None,
-                    metavar="N", help="revolutions of the exponent estimate (default --revs)")
-    sp.add_argument("--rtol", type=_rtol_arg, default=1e-10, metavar="R",
-                    help="relative tolerance (default 1e-10; see docs/analysis.md before raising it)")
-    sp.add_argument("--lyapunov-rtol", type=_rtol_arg, default=None, metavar="R",
-                    help="relative tolerance of the exponent (default --rtol)")
-    sp.add_argument("--rtol-check", type=_rtol_arg, default=None, metavar="R",
-                    help="recompute each exponent at this second tolerance; cells where the two "
-                         "disagree are 'uncertain' (default: no check)")
-    sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
-                    help="estimator of the exponent: tangent dynamics with saltation (default) "
-                         "or two trajectories (benettin)")
-    sp.add_argument("--lyapunov-method", choices=("dopri5", "dop853", "rodas"), default="dopri5",
-                    help="integrator of the exponent (default dopri5; dop853 and rodas only with "
-                         "--estimator benettin; rodas is experimental and slow on contact "
-                         "scenes, see docs/lyapunov.md)")
-    sp.add_argument("--d0", type=_number_arg("--d0"), default=None, metavar="D0",
-                    help="initial separation of --estimator benettin, scaled norm (default 1e-4)")
-    sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
-    sp.add_argument("--observable", default=None, metavar="COL",
-                    help="section observable of the 0-1 test (default <first clearance joint>.ex)")
-    sp.add_argument("--workers", type=_count_arg("--workers", 1), default=None, metavar="N",
-                    help="local worker processes (default: CPU count)")
-    sp.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a Dask cluster at this scheduler address instead")
-    sp.add_argument("--resume", action="store_true", help="skip the cells already in --out")
-    sp.add_argument("--plot", default=None, metavar="FILE",
-                    help="also write the heat map (lambda per revolution, lambda = 0 contour) to "
-                         "FILE (.png, .pdf, .svg)")
-    sp.set_defaults(func=cli_chaos_map)
-    return sp
-
-
-def _split_keys(text: str) -> list[str]:
-    keys = [k.strip() for k in str(text).split(",") if k.strip()]
-    if not keys:
-        raise InputError(f"parameter = {text!r}: give a --set key such as joints.B.clearance")
-    return keys
-
-
-def cli_chaos_map(args) -> int:
-    """``nld chaos-map``: run the map, print one line per cell and a summary; exit 1 only when
-    every cell failed."""
-    import sys
-    kx, ky = _split_keys(args.x), _split_keys(args.y)
-    lx, ly = param_label(kx), param_label(ky)
-    if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise InputError(f"--plot = {args.plot!r}: give a .png, .pdf or .svg file")
-
-    from nld.progress import write
-
-    def on_point(k, n, rec):
-        t = rec["table"].iloc[0]
-        if rec["status"] == "ok":
-            res = (f"lambda = {t['per_revolution']:.3g} +- {t['uncertainty_per_revolution']:.2g} "
-                   f"per rev ({t['verdict']})" + (f", K = {t['K']:.2f}" if math.isfinite(t["K"]) else ""))
-        else:
-            res = f"failed: {rec['message']}"
-        x, y = rec["value"]
-        write(f"[{k}/{n}] {lx} = {x!s}, {ly} = {y!s}: {res} ({rec['wall']:.3g} s)")
-
-    _bif.check_values(args.scene, args.overrides, kx, args.x_values, "--x-values")
-    _bif.check_values(args.scene, args.overrides, ky, args.y_values, "--y-values")
-
-    df = chaos_map(args.scene, kx if len(kx) > 1 else kx[0], args.x_values,
-                   ky if len(ky) > 1 else ky[0], args.y_values,
-                   transient_revs=args.transient_revs, revs=args.revs,
-                   lyapunov_revs=args.lyapunov_revs, rtol=args.rtol,
-                   lyapunov_rtol=args.lyapunov_rtol, rtol_check=args.rtol_check, d0=args.d0,
-                   lyapunov_method=args.lyapunov_method, estimator=args.estimator,
-                   seed=args.seed,
-                   observable=args.observable, workers=args.workers, dask=args.dask,
-                   out=args.out, resume=args.resume, base_overrides=args.overrides,
-                   progress=args.progress, on_point=on_point)
-    counts = df["verdict"].value_counts()
-    print(f"wrote {len(df)} cells to {args.out} (read with nld.analysis.chaos_map.load_chaos_map): "
-          + ", ".join(f"{counts.get(v, 0)} {v}" for v in ("chaotic", "regular", "uncertain", "failed")))
-    if args.plot is not None:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig = chaos_map_plot(df, title=f"{df.attrs['provenance'].get('scene', args.scene)}: "
-                                       "largest Lyapunov exponent")
-        fig.savefig(args.plot, dpi=150, bbox_inches="tight")
-        plt.close(fig)
-        print(f"wrote {args.plot}")
-    n_failed = int((df["status"] != "ok").sum())
-    if n_failed:
-        print(f"nld: warning: {n_failed} of {len(df)} cells failed (status 'failed' in the table)",
-              file=sys.stderr)
-    return 1 if n_failed == len(df) else 0

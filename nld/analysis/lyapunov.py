@@ -39,6 +39,7 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError
+from nld.settings import BENETTIN, BENETTIN_SPANS, LYAPUNOV, TANGENT, TANGENT_SPANS
 from nld.systems.core import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
 
 __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_benettin",
@@ -47,22 +48,27 @@ __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_ben
            "lyapunov_nolds", "DEFAULTS"]
 
 # documented defaults (docs/lyapunov.md); "base" = the system's period (a scene: one crank
-# revolution), or 1 time unit for a flow without period
+# revolution), or 1 time unit for a flow without period. The settings shared with the command line
+# are nld.settings' (LYAPUNOV, TANGENT_SPANS, BENETTIN_SPANS, TANGENT, BENETTIN); the rest are here.
 DEFAULTS = {
     # Benettin, flows: renorm_interval = base, checks = 32 per interval when the system has a
     # period (else 1), early renormalisation when the separation exceeds max_growth * d0,
     # transient = 20 base, total = 500 base
-    "flow": dict(rtol=1e-10, d0=1e-4, max_growth=10.0, checks_with_period=32,
-                 transient_base=20.0, total_base=500.0, interval_base=1.0),
+    "flow": dict(rtol=LYAPUNOV.rtol, d0=BENETTIN.d0, max_growth=BENETTIN.max_growth,
+                 checks_with_period=BENETTIN.checks_per_period,
+                 transient_base=float(BENETTIN_SPANS.transient_revs),
+                 total_base=float(BENETTIN_SPANS.revs), interval_base=BENETTIN.interval_revs),
     # perturbation vectors, flows: renorm_interval = base / 32 (period) or 0.1 (no period)
-    "spectrum_flow": dict(rtol=1e-10, d0=1e-5, transient_base=20.0, total_base=500.0,
+    "spectrum_flow": dict(rtol=LYAPUNOV.rtol, d0=1e-5, transient_base=20.0, total_base=500.0,
                           interval_period=1.0 / 32.0, interval_no_period=0.1),
     "map": dict(d0=1e-9, renorm_interval=1, transient=1000, total=100_000),
     # tangent dynamics, flows: renorm_interval = base / 8 (period) or 0.1 (no period),
     # transient 20 base (state only), align 2 base (vectors, discarded), total 200 base
-    "tangent": dict(rtol=1e-10, transient_base=20.0, align_base=2.0, total_base=200.0,
-                    interval_period=1.0 / 8.0, interval_no_period=0.1),
-    "n_blocks": 20,
+    "tangent": dict(rtol=LYAPUNOV.rtol, transient_base=float(TANGENT_SPANS.transient_revs),
+                    align_base=TANGENT.align_revs, total_base=float(TANGENT_SPANS.revs),
+                    interval_period=TANGENT.interval_revs,
+                    interval_no_period=TANGENT.interval_no_period),
+    "n_blocks": TANGENT.n_blocks,
 }
 
 
@@ -689,8 +695,8 @@ def _per_period(rates: np.ndarray, T: float, period) -> np.ndarray:
 
 
 def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_interval=None,
-                     rtol=None, seed: int = 0, align=None, tangent_err: bool = True,
-                     target_uncertainty: float | None = None, max_total=None,
+                     rtol=None, seed: int = 0, align=None, tangent_err: bool = TANGENT.tangent_err,
+                     target_uncertainty: float | None = TANGENT.target_uncertainty, max_total=None,
                      progress=None, check: bool = False, n_blocks: int | None = None):
     """The first k Lyapunov exponents from the tangent (variational) dynamics, with saltation
     matrices at every event (docs/lyapunov.md). The default estimator of ``nld lyapunov``.
@@ -755,7 +761,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
                 0 < target_uncertainty < 1):
             raise InputError(f"target_uncertainty = {target_uncertainty!r}: must be a relative "
                              "uncertainty in (0, 1), e.g. 0.05")
-        max_total = 10.0 * total if max_total is None else max_total
+        max_total = TANGENT.max_total_factor * total if max_total is None else max_total
         _check_positive("max_total", max_total)
         if max_total < total:
             raise InputError(f"max_total = {max_total!r}: must be >= total = {total!r}")

@@ -25,15 +25,16 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError, Interrupted
+from nld.settings import LYAPUNOV, POINCARE_SPANS, SECTIONS
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
-           "default_observables", "add_arguments", "cli_poincare"]
+           "default_observables"]
 
 TWO_PI = 2.0 * math.pi
 DEFAULT_PERIOD_TOL = 1e-6
 DEFAULT_N_MAX = 16
-DEFAULT_SAMPLES_PER_REV = 360
+DEFAULT_SAMPLES_PER_REV = SECTIONS.samples_per_rev
 
 
 @dataclass
@@ -133,9 +134,10 @@ def _system_observables(system):
 # stroboscopic map
 
 
-def stroboscopic(scene, *, transient_revs: int = 100, revs: int = 100, observables=None,
-                 overrides=None, rtol: float = 1e-8, y0=None, z0=None, kernel=None,
-                 max_steps: int = 50_000_000, progress: bool | None = None) -> Section:
+def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
+                 revs: int = POINCARE_SPANS.revs, observables=None,
+                 overrides=None, rtol: float = SECTIONS.rtol, y0=None, z0=None, kernel=None,
+                 max_steps: int = SECTIONS.max_steps, progress: bool | None = None) -> Section:
     """Stroboscopic Poincaré map: observables at t = k T, k = transient_revs .. transient_revs+revs-1.
 
     scene: Scene, built-in name or TOML path (``overrides`` as ``nld --set``) of a mechanism with
@@ -250,9 +252,10 @@ def _system_provenance(system, **extra) -> dict:
     return d
 
 
-def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = 100, revs: int = 100,
-                     rtol: float = 1e-10, state_names=None, scales=None, name: str = "ode",
-                     observables=None, max_steps: int = 50_000_000, solve=None) -> Section:
+def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = POINCARE_SPANS.transient_revs,
+                     revs: int = POINCARE_SPANS.revs, rtol: float = LYAPUNOV.rtol,
+                     state_names=None, scales=None, name: str = "ode",
+                     observables=None, max_steps: int = LYAPUNOV.max_steps, solve=None) -> Section:
     """Stroboscopic map of any T-periodic ODE given as a numba ``rhs(t, y, p, z, dy)``.
 
     The ODE is wrapped in :class:`nld.systems.ContinuousSystem` (DOPRI5 of
@@ -326,9 +329,9 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
                        direction: int = 1, modulo: float | None = None, transient_revs: float = 0.0,
                        revs: float | None = None, t_transient: float | None = None,
                        t_end: float | None = None, observables=None, overrides=None,
-                       rtol: float = 1e-8, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
+                       rtol: float = SECTIONS.rtol, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
                        dt: float | None = None, y0=None, z0=None, refine: bool = True,
-                       kernel=None, max_steps: int = 50_000_000,
+                       kernel=None, max_steps: int = SECTIONS.max_steps,
                        progress: bool | None = None) -> Section:
     """Poincaré section at the crossings of ``observable`` through ``level`` in ``direction``.
 
@@ -587,97 +590,4 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
     for n in range(1, min(int(n_max), N // 2) + 1):
         if np.max(np.abs(Q[n:] - Q[:-n])) <= tol:
             return n
-    return 0
-
-
-# ---------------------------------------------------------------------------------------------------
-# command line (registered by nld.cli: see docs/analysis.md)
-
-
-def add_arguments(subparsers):
-    """Add ``nld poincare`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from nld.cli import _number_arg, _rtol_arg
-    sp = subparsers.add_parser(
-        "poincare", help="Poincaré section of a scene (stroboscopic or crank-angle)",
-        description="Poincaré section: the observables at every crank revolution after a transient "
-                    "(stroboscopic, speed-driven crank) or at each crossing of crank angle = "
-                    "THETA0 mod 2 pi (--angle, e.g. a torque-driven crank); prints the points and "
-                    "the detected period.")
-    sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path of a .toml file")
-    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
-    sp.add_argument("--transient-revs", type=_count_arg("--transient-revs", 0), default=100,
-                    metavar="N", help="crank revolutions discarded first (default 100)")
-    sp.add_argument("--revs", type=_count_arg("--revs", 1), default=100, metavar="N",
-                    help="section points / revolutions after the transient (default 100)")
-    sp.add_argument("--observables", default=None, metavar="COLS",
-                    help="comma-separated table columns (default: <first clearance joint>.ex,.ey)")
-    sp.add_argument("--rtol", type=_rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
-    sp.add_argument("--angle", type=_number_arg("--angle", positive=False), default=None,
-                    metavar="THETA0", help="crank-angle section at THETA0 (rad) mod 2 pi instead "
-                                           "of the stroboscopic one")
-    sp.add_argument("--period-tol", type=_number_arg("--period-tol"), default=DEFAULT_PERIOD_TOL,
-                    metavar="TOL", help=f"relative tolerance of the period detection "
-                                        f"(default {DEFAULT_PERIOD_TOL:g})")
-    sp.add_argument("--out", metavar="FILE", help="write the points to FILE.csv or FILE.parquet "
-                                                 "(provenance in FILE.json / parquet metadata)")
-    sp.set_defaults(func=cli_poincare)
-    return sp
-
-
-def _count_arg(name: str, minimum: int):
-    import argparse
-
-    def conv(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not an integer") from None
-        if v < minimum:
-            raise argparse.ArgumentTypeError(f"{name} = {text}: must be >= {minimum}")
-        return v
-    conv.__name__ = name
-    return conv
-
-
-def cli_poincare(args) -> int:
-    """``nld poincare``: print (or write) the section points and the detected period."""
-    from nld.output.io import check_table_path, save_table
-    out = check_table_path(args.out) if args.out else None
-    try:
-        if args.angle is None:
-            sec = stroboscopic(args.scene, transient_revs=args.transient_revs, revs=args.revs,
-                               observables=args.observables, overrides=args.overrides,
-                               rtol=args.rtol, progress=args.progress)
-        else:
-            sec = hyperplane_section(args.scene, observable="driver.angle", level=args.angle,
-                                     transient_revs=args.transient_revs, revs=args.revs,
-                                     observables=args.observables, overrides=args.overrides,
-                                     rtol=args.rtol, progress=args.progress)
-    except Interrupted as e:
-        if e.partial is None or out is None:
-            raise
-        prov = dict(e.partial.provenance)
-        prov.update(partial=True, command=getattr(args, "command_line", None))
-        path = save_table(e.partial.table, out, prov)
-        raise Interrupted(str(e), kept=f"wrote the partial section ({e.kept}) to {path}, marked "
-                                       "partial in its provenance") from None
-    from nld.model.scene import load_scene
-    n = period_of(sec.points, tol=args.period_tol,
-                  scale=section_scales(load_scene(args.scene, args.overrides), sec.observables))
-    prov = dict(sec.provenance)
-    prov.update(period_detected=n, period_tol=args.period_tol,
-                command=getattr(args, "command_line", None))
-    if out is not None:
-        path = save_table(sec.table, out, prov)
-        print(f"wrote {len(sec.table)} section points to {path}")
-    else:
-        print(sec.table.to_string(index=False, float_format=lambda v: f"{v:.9g}"))
-    print(f"period: {n if n else 'none found (aperiodic or longer than 16)'} "
-          f"(tolerance {args.period_tol:g}); {sec.message}")
-    if not sec.success:
-        import sys
-        print(f"nld: error: integration failed: {sec.message}", file=sys.stderr)
-        return 1
     return 0

@@ -36,9 +36,10 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError
+from nld.settings import SPECTRUM, SPECTRUM_SPANS
 
 __all__ = ["spectrum", "peaks", "table_spectrum", "scene_spectrum", "resample_uniform",
-           "crank_frequency_of", "add_arguments", "cli_spectrum"]
+           "crank_frequency_of"]
 
 METHODS = ("welch", "fft")
 
@@ -231,8 +232,9 @@ def table_spectrum(table: pd.DataFrame, observable: str | None = None, *, transi
     return spec
 
 
-def scene_spectrum(scene, observable: str | None = None, *, overrides=None, revs: float = 50,
-                   transient_revs: float = 10, samples_per_rev: int = 720, rtol: float = 1e-8,
+def scene_spectrum(scene, observable: str | None = None, *, overrides=None,
+                   revs: float = SPECTRUM_SPANS.revs, transient_revs: float = SPECTRUM_SPANS.transient_revs,
+                   samples_per_rev: int = SPECTRUM.samples_per_rev, rtol: float = SPECTRUM.rtol,
                    method: str = "welch", window="hann", nperseg: int | None = None):
     """Simulate ``scene`` for transient_revs + revs crank revolutions (``samples_per_rev`` output
     points per revolution: Nyquist = samples_per_rev/2 crank orders) and return
@@ -245,78 +247,3 @@ def scene_spectrum(scene, observable: str | None = None, *, overrides=None, revs
         raise SolveError(f"integration failed: {res.message}")
     return table_spectrum(res.table, observable, transient_revs=transient_revs, method=method,
                           window=window, nperseg=nperseg), res
-
-
-# ---------------------------------------------------------------------------------------------------
-# command line (registered by nld.cli: see docs/analysis.md)
-
-
-def add_arguments(subparsers):
-    """Add ``nld spectrum`` to the sub-commands of nld's parser; returns the sub-parser."""
-    from nld.cli import _number_arg, _rtol_arg
-    from nld.analysis.poincare import _count_arg
-    sp = subparsers.add_parser(
-        "spectrum", help="frequency spectrum of a scene observable (default the contact force)",
-        description="Simulate a scene (or read a run table with --table) and print the largest "
-                    "peaks of the spectrum of an observable, in Hz and crank orders.")
-    sp.add_argument("scene", metavar="SCENE", nargs="?", default=None,
-                    help="built-in scene name or path of a .toml file (omit with --table)")
-    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)")
-    sp.add_argument("--table", metavar="FILE", default=None,
-                    help="analyse a saved run (FILE.csv / FILE.parquet of nld simulate --out)")
-    sp.add_argument("--observable", default=None, metavar="COL",
-                    help="table column (default: <first clearance joint>.Fn)")
-    sp.add_argument("--revs", type=_number_arg("--revs"), default=50.0, metavar="N",
-                    help="revolutions analysed after the transient (default 50)")
-    sp.add_argument("--transient-revs", type=_number_arg("--transient-revs", positive=False),
-                    default=10.0, metavar="N", help="revolutions dropped first (default 10)")
-    sp.add_argument("--samples-per-rev", type=_count_arg("--samples-per-rev", 2), default=720, metavar="N",
-                    help="output samples per revolution (default 720: orders up to 360)")
-    sp.add_argument("--rtol", type=_rtol_arg, default=1e-8, metavar="R",
-                    help="relative tolerance (default 1e-08)")
-    sp.add_argument("--method", choices=METHODS, default="welch", help="welch (default) or fft")
-    sp.add_argument("--window", default="hann", help="scipy window name (default hann)")
-    sp.add_argument("--nperseg", type=_count_arg("--nperseg", 8), default=None, metavar="N",
-                    help="Welch segment length (default: largest power of 2 <= N/4)")
-    sp.add_argument("--peaks", type=_count_arg("--peaks", 1), default=10, metavar="N",
-                    help="number of peaks printed (default 10)")
-    sp.add_argument("--out", metavar="FILE", help="write the full spectrum to FILE.csv or "
-                                                 "FILE.parquet (provenance alongside)")
-    sp.set_defaults(func=cli_spectrum)
-    return sp
-
-
-def cli_spectrum(args) -> int:
-    """``nld spectrum``: print the largest peaks (and write the spectrum with --out)."""
-    from nld.output.io import check_table_path, load_table, save_table
-    out = check_table_path(args.out) if args.out else None
-    if args.table is not None:
-        if args.scene is not None:
-            raise InputError("give either SCENE or --table, not both")
-        table, prov = load_table(args.table)
-        spec = table_spectrum(table, args.observable, transient_revs=args.transient_revs
-                              if crank_frequency_of(table) else None, method=args.method,
-                              window=args.window, nperseg=args.nperseg)
-        prov = dict(prov, source_table=str(args.table))
-    else:
-        if args.scene is None:
-            raise InputError("give a SCENE or --table FILE")
-        spec, res = scene_spectrum(args.scene, args.observable, overrides=args.overrides,
-                                   revs=args.revs, transient_revs=args.transient_revs,
-                                   samples_per_rev=args.samples_per_rev, rtol=args.rtol,
-                                   method=args.method, window=args.window, nperseg=args.nperseg)
-        prov = dict(res.provenance)
-    prov.update(kind="spectrum", **{k: v for k, v in spec.attrs.items()},
-                command=getattr(args, "command_line", None))
-    pk = peaks(spec, args.peaks)
-    a = spec.attrs
-    print(f"spectrum of {a['observable']} ({a['method']}, {a['window']} window, "
-          f"resolution {a['resolution_hz']:.4g} Hz"
-          + (f", crank frequency {a['crank_frequency']:.6g} Hz" if a.get("crank_frequency") else "")
-          + ")")
-    print(pk.to_string(index=False, float_format=lambda v: f"{v:.6g}"))
-    if out is not None:
-        path = save_table(spec, out, prov)
-        print(f"wrote {len(spec)} frequencies to {path}")
-    return 0

@@ -30,11 +30,13 @@ exclude that (docs/integrator.md, "Events").
 import numpy as np
 from numba import njit
 
+from nld.settings import SIMULATE
+
 EPS = 2.220446049250313e-16
 ROOT_RTOL = 1.0e-12
 ROOT_MAXITER = 200
 
-EVENT_SAMPLES = 3      # default interior samples per step (docs/integrator.md, "Events")
+EVENT_SAMPLES = SIMULATE.event_samples  # default interior samples per step (nld.settings)
 MAX_EVENT_SAMPLES = 64  # input validation bound (a cost of 64 event evaluations per step)
 REFINE = 8             # pieces the first sub-interval with a sign change is split into
 

@@ -77,7 +77,8 @@ def kernel_dependencies() -> list[Path]:
     """The source files whose change must give a new kernel (see ``_generator_digest``)."""
     here = Path(__file__).resolve().parent.parent          # nld/
     files = [here / f for f in ("kernel/codegen.py", "kernel/autodiff.py", "model/topology.py",
-                                "model/parameters.py", "kernel/support.py")]
+                                "model/parameters.py", "kernel/support.py",
+                                "settings.py")]   # settings: EVENT_SAMPLES
     return files + sorted((here / "laws").rglob("*.py")) + sorted((here / "integrators").glob("*.py"))
 
 

@@ -15,7 +15,7 @@ from nld.model.scene_model import Scene
 from nld.model.topology import GROUND, Topology
 
 
-def _point(scene: Scene, names, poses, vels, body: int, pname: str):
+def world_point(scene: Scene, names, poses, vels, body: int, pname: str):
     """World position and velocity of a named point of a body (or the ground)."""
     if body == GROUND:
         x, y = scene.ground_points[pname]
@@ -55,8 +55,8 @@ def tree_coordinates(scene: Scene, topo: Topology, poses: np.ndarray, vels: np.n
         else:
             j = scene.joints[e.joint]
             u = _guide_direction(j, pth)
-            rg, vg = _point(scene, names, poses, vels, e.parent, e.parent_point)
-            rs, vs = _point(scene, names, poses, vels, b, e.child_point)
+            rg, vg = world_point(scene, names, poses, vels, e.parent, e.parent_point)
+            rs, vs = world_point(scene, names, poses, vels, b, e.child_point)
             q[k] = float((rs - rg) @ u)
             udot = pw * np.array([-u[1], u[0]])
             qd[k] = float((vs - vg) @ u + (rs - rg) @ udot)
@@ -101,12 +101,12 @@ def forward_poses(scene: Scene, topo: Topology, q: np.ndarray) -> np.ndarray:
         pth = 0.0 if e.parent == GROUND else poses[e.parent, 2]
         bx, by = scene.bodies[names[b]].points[e.child_point]
         if e.kind in ("crank", "rev"):
-            rj, _ = _point(scene, names, poses, zero, e.parent, e.parent_point)
+            rj, _ = world_point(scene, names, poses, zero, e.parent, e.parent_point)
             th = pth + q[k]
         else:
             j = scene.joints[e.joint]
             u = _guide_direction(j, pth)
-            rg, _ = _point(scene, names, poses, zero, e.parent, e.parent_point)
+            rg, _ = world_point(scene, names, poses, zero, e.parent, e.parent_point)
             rj = rg + q[k] * u
             b0, b1 = j.bodies
             off = (scene.bodies[b1].angle0 if b1 != "ground" else 0.0) - (
@@ -123,7 +123,7 @@ def _cut_residual(scene: Scene, topo: Topology, q: np.ndarray) -> np.ndarray:
     out = []
     for jn in topo.cuts:
         j = scene.joints[jn]
-        ra, _ = _point(scene, topo.body_names, poses, zero, topo.body_index(j.bodies[0]), j.points[0])
-        rb, _ = _point(scene, topo.body_names, poses, zero, topo.body_index(j.bodies[1]), j.points[1])
+        ra, _ = world_point(scene, topo.body_names, poses, zero, topo.body_index(j.bodies[0]), j.points[0])
+        rb, _ = world_point(scene, topo.body_names, poses, zero, topo.body_index(j.bodies[1]), j.points[1])
         out.extend(ra - rb)
     return np.array(out)

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["unit_of", "label_of", "poincare_scatter", "bifurcation_diagram",
-           "exponent_convergence", "spectrum_plot"]
+           "exponent_convergence", "spectrum_plot", "figure_axes"]
 
 DIRECTION_COLOURS = {"up": "tab:blue", "down": "tab:orange"}
 
@@ -53,7 +53,9 @@ def label_of(name: str, unit: str | None = None) -> str:
     return f"{name} ({u})" if u else name
 
 
-def _figure(ax, figsize=(6.4, 4.8)):
+def figure_axes(ax, figsize=(6.4, 4.8)):
+    """``(figure, axes)``: those of ``ax`` if given, else a new matplotlib Figure (no pyplot) of
+    ``figsize`` inches with one subplot."""
     if ax is not None:
         return ax.figure, ax
     from matplotlib.figure import Figure
@@ -77,7 +79,7 @@ def poincare_scatter(section, x: str | None = None, y: str | None = None, *, ax=
                                                "lyapunov_uncertainty", "status", "message")]
     x = x or obs[0]
     y = y or (obs[1] if len(obs) > 1 else obs[0])
-    fig, ax = _figure(ax)
+    fig, ax = figure_axes(ax)
     ax.scatter(table[x].to_numpy() * scale, table[y].to_numpy() * scale, s=s, c=color,
                label=label, linewidths=0)
     ax.set_xlabel(label_of(x, unit))
@@ -105,7 +107,7 @@ def bifurcation_diagram(table: pd.DataFrame, observable: str | None = None, *, p
         skip = {"value", "direction", "index", "rev", "period", "lyapunov",
                 "lyapunov_uncertainty", "status", "message"}
         observable = next(c for c in table.columns if c not in skip)
-    fig, ax = _figure(ax)
+    fig, ax = figure_axes(ax)
     ok = table[table["status"] == "ok"] if "status" in table.columns else table
     dirs = ok["direction"].unique() if "direction" in ok.columns else [None]
     for d in dirs:
@@ -156,7 +158,7 @@ def exponent_convergence(result=None, *, times=None, history=None, uncertainty=N
             raise ValueError("per_revolution needs a period")
         t, H, U = t / period, H * period, U * period
         xlabel, ylabel = "averaging time (revolutions)", "Lyapunov exponent (1/revolution)"
-    fig, ax = _figure(ax)
+    fig, ax = figure_axes(ax)
     for k in range(H.shape[1]):
         lab = (labels[k] if labels is not None else (f"λ{k + 1}" if H.shape[1] > 1 else "λ1"))
         line, = ax.plot(t, H[:, k], lw=1.2, label=lab)
@@ -189,7 +191,7 @@ def spectrum_plot(spec: pd.DataFrame, *, ax=None, title: str | None = None, log:
     u = unit if unit is not None else (unit_of(obs) if obs else "")
     f = spec["freq_hz"].to_numpy()
     p = spec["power"].to_numpy()
-    fig, ax = _figure(ax)
+    fig, ax = figure_axes(ax)
     sel = f > 0 if log else np.ones_like(f, dtype=bool)
     ax.plot(f[sel], p[sel], lw=0.9, color="k")
     if log:

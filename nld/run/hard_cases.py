@@ -21,7 +21,8 @@ Each case is ``(scene, overrides, revs, rtol, method, expectation)`` plus the me
 
 ``run_case(name, quick=True)`` runs the shortened variant (``quick_revs``) that the default test run
 uses. ``run_case`` returns a :class:`CaseReport` (``passed``, the checks with values and bounds, the
-result); ``python -m nld.run.hard_cases [--quick] [name ...]`` prints the reports (``--list``: the cases).
+result); ``nld hard-cases [--quick] [name ...]`` (nld.cli.hard_cases) prints the reports (``--list``: the
+cases).
 """
 from __future__ import annotations
 
@@ -380,33 +381,3 @@ def run_case(name: str, *, revs: float | None = None, quick: bool = False,
 def _scene(case: HardCase):
     from nld.model.scene import load_scene
     return load_scene(case.scene, list(case.overrides))
-
-
-def main(argv=None) -> int:
-    """``nld hard-cases [--quick] [--list] [name ...]``: run the named cases (default: all) and print
-    their reports; exit status 0 when every case passed, 1 otherwise, 2 for an unknown name."""
-    import sys
-    args = list(sys.argv[1:] if argv is None else argv)
-    quick = "--quick" in args
-    if "--list" in args:
-        for n, c in CASES.items():
-            q = f", quick {c.quick_revs:g}" if c.has_long_variant else ""
-            print(f"{n}: {c.description} ({c.scene}, {c.revs:g} revs{q}, {c.method}, "
-                  f"rtol {c.rtol:g}, expects {c.expectation})")
-        return 0
-    names = [a for a in args if not a.startswith("--")] or list(CASES)
-    unknown = [n for n in names if n not in CASES]
-    if unknown:
-        print(f"unknown hard case(s) {', '.join(unknown)}: choose from {', '.join(CASES)}",
-              file=sys.stderr)
-        return 2
-    bad = 0
-    for n in names:
-        rep = run_case(n, quick=quick)
-        print(rep.summary(), flush=True)
-        bad += not rep.passed
-    return 1 if bad else 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

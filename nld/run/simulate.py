@@ -16,11 +16,12 @@ from nld.errors import InputError, InputTypeError, Interrupted, SolveError
 from nld.interrupt import deferred
 from nld.kernel.compile import Kernel, compile_scene
 from nld.progress import progress_bar
+from nld.settings import SIMULATE
 from nld.model.scene_model import Scene
 from nld.model.topology import GROUND
 
-DEFAULT_RTOL = 1e-8
-DEFAULT_SAMPLES_PER_REV = 360
+DEFAULT_RTOL = SIMULATE.rtol                           # when the scene recommends none
+DEFAULT_SAMPLES_PER_REV = SIMULATE.samples_per_rev
 DEFAULT_CHUNK_REVS = 1.0
 INTERRUPTED = -9               # status of a run stopped by Ctrl-C (SIGINT), see integrate_chunked
 MAX_OUTPUT_BYTES = 4 * 2**30   # refuse a run whose output table alone would exceed this
@@ -184,7 +185,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
     centre that it moves (so an angle error of one scale moves the journal by about one clearance);
     a slide or a floating position by c_min (m). Velocities take the same scale times the crank speed.
     """
-    from nld.model.assembly import _point, forward_poses
+    from nld.model.assembly import forward_poses, world_point
     sc, topo = kernel.scene, kernel.topo
     cl = [sc.joints[j].clearance for j in topo.clearance]
     cmin = min(cl) if cl else 1e-3
@@ -196,7 +197,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
         for b, pn in zip(j.bodies, j.points):
             bi = topo.body_index(b)
             if bi != GROUND:
-                centres.append((bi, _point(sc, topo.body_names, poses, zero, bi, pn)[0]))
+                centres.append((bi, world_point(sc, topo.body_names, poses, zero, bi, pn)[0]))
     pos = []
     for k in topo.independent:
         c = topo.coords[k]
@@ -207,7 +208,7 @@ def state_scales(kernel: Kernel, q0: np.ndarray) -> np.ndarray:
         if c.kind == "fth":
             pivot = poses[c.body, :2]
         else:
-            pivot = _point(sc, topo.body_names, poses, zero, e.parent, e.parent_point)[0]
+            pivot = world_point(sc, topo.body_names, poses, zero, e.parent, e.parent_point)[0]
         moved = [r for bi, r in centres if k in topo.ancestors(bi)]
         L = max([float(np.hypot(*(r - pivot))) for r in moved] + [0.0])
         if L <= 0.0:
@@ -260,7 +261,7 @@ def tolerances(kernel: Kernel, q0: np.ndarray, rtol: float) -> np.ndarray:
 def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | None = None,
              rtol: float | None = None, t_eval=None, samples_per_rev: int = DEFAULT_SAMPLES_PER_REV,
              overrides=None, y0=None, z0=None, t0: float = 0.0, land: bool = False,
-             max_steps: int = 50_000_000, hmax: float | None = None, kernel: Kernel | None = None,
+             max_steps: int = SIMULATE.max_steps, hmax: float | None = None, kernel: Kernel | None = None,
              raise_on_failure: bool = False, method: str | None = None,
              chunk_revs: float | None = DEFAULT_CHUNK_REVS, progress: bool | None = None,
              event_samples: int | None = None) -> SimulationResult:

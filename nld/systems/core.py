@@ -43,16 +43,17 @@ from nld.integrators.dop853 import dop853
 from nld.integrators import method_status_message
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
 from nld.integrators.events import EVENT_SAMPLES, check_event_samples
+from nld.settings import LYAPUNOV
 from nld.integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
-           "lorenz", "duffing", "logistic", "henon", "linear"]
+           "lorenz", "duffing", "logistic", "henon", "linear", "SYSTEM_METHODS", "check_system_method"]
 
-DEFAULT_MAX_STEPS = 50_000_000
+DEFAULT_MAX_STEPS = LYAPUNOV.max_steps
 SYSTEM_METHODS = ("dopri5", "dop853", "rodas")
 
 
-def _check_system_method(method, field: str = "method") -> str:
+def check_system_method(method, field: str = "method") -> str:
     """``method`` if it is one of SYSTEM_METHODS, else InputError naming ``field``."""
     if method not in SYSTEM_METHODS:
         raise InputError(f"{field} = {method!r}: must be one of {', '.join(SYSTEM_METHODS)}")
@@ -147,7 +148,7 @@ class ContinuousSystem:
                  n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
                  t0: float = 0.0, method: str = "dopri5", jacobian=None, jvp: str = "auto",
                  memory=(), period_name: str = "forcing period", event_samples: int | None = None):
-        self.method = _check_system_method(method)
+        self.method = check_system_method(method)
         self.event_samples = (EVENT_SAMPLES if event_samples is None
                               else check_event_samples(event_samples))
         if jvp not in ("auto", "autodiff", "fd"):
@@ -311,7 +312,7 @@ def period_shift(system, t: float) -> float:
     return math.floor((t - system.t0) / system.period) * system.period
 
 
-def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 1e-10, *,
+def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = LYAPUNOV.rtol, *,
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
     """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
     DOPRI5 by default); returns (y(t1), z(t1)).
@@ -563,7 +564,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
         period = None
     mod = kern.module
     solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
-             "rodas": mod.solve_rodas}[_check_system_method(method)]
+             "rodas": mod.solve_rodas}[check_system_method(method)]
     from nld.kernel.codegen import needs_onset_velocity
     memory = [ci for ci, jn in enumerate(kern.topo.clearance)
               if needs_onset_velocity(scene.joints[jn])]
@@ -582,7 +583,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
 
 
 def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
-               rtol: float = 1e-10):
+               rtol: float = LYAPUNOV.rtol):
     """States sampled every dt after a transient: (t, Y), Y[i] = y(t0 + transient + i dt).
 
     Flows: DOPRI5 with dense output (t in s). Maps: dt is ignored, Y[i] = x_{transient + i}.

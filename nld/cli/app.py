@@ -1,0 +1,104 @@
+"""The parser of the ``nld`` command line, assembled from one module per command, and
+:func:`main`: parse, run, and turn errors into exit statuses (see :mod:`nld.cli`)."""
+from __future__ import annotations
+
+import os
+import shlex
+import sys
+
+from nld.cli import bifurcation, chaos_map, hard_cases, lyapunov, poincare, scenes, simulate, \
+    spectrum, study
+from nld.cli.args import PROG, Parser, UsageError, print_error, print_interrupted, progress_args
+from nld.errors import InputError, Interrupted, SceneError, SolveError
+from nld.version import __version__
+
+# the sub-commands in the order of ``nld --help``
+COMMANDS = (scenes, simulate, poincare, bifurcation, spectrum, chaos_map, lyapunov, hard_cases, study)
+
+
+def build_parser() -> Parser:
+    p = Parser(prog=PROG, description="Nonlinear dynamics of planar mechanisms with clearance joints.")
+    p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    sub.required = True
+    for command in COMMANDS:
+        command.add_parser(sub)
+    for sp in sub.choices.values():
+        progress_args(sp)
+    return p
+
+
+def main(argv=None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    from nld import interrupt
+    from nld import progress
+    argv = list(sys.argv[1:] if argv is None else argv)
+    interrupt.install()
+    try:
+        try:
+            args = build_parser().parse_args(values_with_minus(argv))
+        except SystemExit as e:          # --help, --version
+            return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
+        args.command_line = shlex.join([PROG] + [str(a) for a in argv])
+        progress.set_default(getattr(args, "progress", None))
+        try:
+            return int(args.func(args))
+        finally:
+            progress.set_default(None)
+            sys.stdout.flush()
+    except UsageError as e:
+        print_error(e)
+        return 2
+    except (SceneError, InputError) as e:
+        print_error(e)
+        return 2
+    except SolveError as e:
+        print_error(e)
+        return 1
+    except Interrupted as e:
+        print_interrupted(e.kept or str(e) or "nothing kept")
+        return 130
+    except KeyboardInterrupt:
+        print_interrupted("nothing kept (the command had not finished a result yet)")
+        return 130
+    except BrokenPipeError:               # e.g. `nld scenes | head -1`
+        quiet_stdout()
+        return 141
+    except MemoryError:
+        print_error("out of memory: the run is too large for this machine (fewer revolutions or samples)")
+        return 2
+
+
+def quiet_stdout() -> None:
+    """After EPIPE: point stdout at /dev/null so the interpreter's final flush stays silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+
+
+NEG_VALUE_OPTS = ("--values", "--x-values", "--y-values", "--angle", "--set")
+
+
+def values_with_minus(argv: list[str]) -> list[str]:
+    """``--values -1:-5:2`` -> ``--values=-1:-5:2``: argparse takes a value starting with '-'
+    for an option unless it looks like a plain negative number."""
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        if a == "--":
+            out.extend(argv[i:])
+            break
+        if a in NEG_VALUE_OPTS and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and len(argv[i + 1]) > 1 and (argv[i + 1][1].isdigit() or argv[i + 1][1] == "."):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out

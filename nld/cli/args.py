@@ -1,0 +1,129 @@
+"""Shared pieces of the command line: the parser class with one-line errors, argument types (finite
+numbers, relative tolerances, counts, value lists), the scene and progress options, and the
+one-line messages on stderr (``nld: error: ...``, ``nld: interrupted: ...``)."""
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+
+from nld.errors import InputError
+
+PROG = "nld"
+
+
+class UsageError(Exception):
+    """An argparse error, turned into the one-line message of :func:`nld.cli.app.main`."""
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message):       # one line instead of usage + message, see main()
+        message = one_line(message)
+        m = re.match(r"argument (\S+): (\1 = .*)", message)    # our type checks name the option
+        if m:
+            message = m.group(2)
+        cmd = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        hint = f" (see '{PROG}{' ' + cmd if cmd else ''} --help')"
+        raise UsageError(message + hint)
+
+
+def one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+def print_error(message) -> None:
+    """``nld: error: <message>`` on one line of stderr."""
+    print(f"{PROG}: error: {one_line(message)}", file=sys.stderr)
+
+
+def print_interrupted(what: str) -> None:
+    """``nld: interrupted: <what was kept>`` on one line of stderr."""
+    print(f"{PROG}: interrupted: {one_line(what)}", file=sys.stderr, flush=True)
+
+
+# ---------------------------------------------------------------------------------------------------
+# argument types (each message names the option: ``--revs = 'x': not a number``)
+
+
+def number_arg(name: str, *, positive: bool = True):
+    """argparse type: a finite float (> 0 if ``positive``); the message names the option."""
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not a number") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be a finite number")
+        if positive and not v > 0:
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be > 0")
+        return v
+    conv.__name__ = name
+    return conv
+
+
+def rtol_arg(text: str) -> float:
+    """argparse type of ``--rtol`` and the like: a number in [1e-14, 1)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--rtol = {text!r}: not a number") from None
+    if not (math.isfinite(v) and 1e-14 <= v < 1):
+        raise argparse.ArgumentTypeError(f"--rtol = {text}: must be a number in [1e-14, 1)")
+    return v
+
+
+def count_arg(name: str, minimum: int):
+    """argparse type: an integer >= ``minimum``; the message names the option."""
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not an integer") from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be >= {minimum}")
+        return v
+    conv.__name__ = name
+    return conv
+
+
+def values_arg(text: str):
+    """argparse type of a swept value list: START:STOP:NUM (ends included) or V1,V2,..."""
+    from nld.analysis.bifurcation import parse_values
+    try:
+        return parse_values(text)
+    except InputError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+# ---------------------------------------------------------------------------------------------------
+# options shared by several commands
+
+
+def scene_args(sp, *, scene_help="built-in scene name or path of a .toml file",
+               set_help="override a scene value, e.g. joints.B.clearance=2e-4 (repeatable)") -> None:
+    """The positional SCENE and the repeatable ``--set KEY=VALUE``."""
+    sp.add_argument("scene", metavar="SCENE", help=scene_help)
+    sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                    help=set_help)
+
+
+def progress_args(sp) -> None:
+    """``--quiet`` / ``--progress`` (every command; ``nld.progress``)."""
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("--quiet", "-q", dest="progress", action="store_const", const=False, default=None,
+                   help="no progress bars")
+    g.add_argument("--progress", dest="progress", action="store_const", const=True,
+                   help="progress bars on stderr even when it is not a terminal")
+
+
+def progress_kw(func, progress) -> dict:
+    """``{"progress": progress}`` when ``func`` takes a ``progress`` argument, else {}."""
+    import inspect
+    try:
+        params = inspect.signature(func).parameters
+    except (TypeError, ValueError):
+        return {}
+    if "progress" in params or any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return {"progress": progress}
+    return {}

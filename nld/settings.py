@@ -1,0 +1,165 @@
+"""Settings shared by the API and the command line, each default written once (issue 16).
+
+Three frozen dataclasses, and one instance of each for every analysis that has its own defaults:
+
+* :class:`Integration`: tolerance, method, step limit, output and event sampling of a run;
+* :class:`Spans`: the transient and the measured span, in crank revolutions (periods);
+* :class:`Renormalisation`: the re-orthonormalisation and stopping rule of the Lyapunov estimators.
+
+The API functions take their keyword defaults from these instances (``stroboscopic(...,
+rtol=SECTIONS.rtol)``), the command line its option defaults and their help text
+(``nld poincare --rtol``), so the two cannot drift apart (tests/test_settings.py checks each shared
+setting, and that the table of docs/analysis.md, :func:`defaults_table`, is current).
+
+A layer-0 module: it imports nothing of nld.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+__all__ = ["Integration", "Spans", "Renormalisation", "SIMULATE", "SECTIONS", "SPECTRUM",
+           "LYAPUNOV", "POINCARE_SPANS", "BIFURCATION_SPANS", "SPECTRUM_SPANS", "CHAOS_MAP_SPANS",
+           "TANGENT_SPANS", "BENETTIN_SPANS", "TANGENT", "BENETTIN", "defaults_table"]
+
+
+@dataclass(frozen=True)
+class Integration:
+    """How a trajectory is integrated."""
+
+    rtol: float = 1e-8
+    """relative tolerance of the adaptive step-size control (dimensionless; the absolute one is
+    rtol x the state scales)"""
+    method: str = "dopri5"
+    """integrator: dopri5 (Dormand-Prince 5(4)), dop853 or rodas (Rosenbrock, experimental)"""
+    max_steps: int = 50_000_000
+    """steps allowed in one run; past them the run stops with a failure status"""
+    samples_per_rev: int = 360
+    """output rows per crank revolution (dense output; 1 degree of crank angle at 360)"""
+    event_samples: int = 3
+    """interior points of every step at which the event (contact) functions are sampled for sign
+    changes (docs/integrator.md, "Events")"""
+
+
+@dataclass(frozen=True)
+class Spans:
+    """How long: both spans in crank revolutions (periods of the system)."""
+
+    transient_revs: float
+    """revolutions integrated first and discarded (the transient), rev"""
+    revs: float
+    """revolutions measured after the transient (section points, spectrum or averaging span), rev"""
+
+
+@dataclass(frozen=True)
+class Renormalisation:
+    """Lyapunov estimators: how the tangent vectors (or the separated twin) are renormalised and when
+    the averaging stops; None: does not apply to the estimator."""
+
+    interval_revs: float
+    """renormalisation (re-orthonormalisation) interval, rev (periods)"""
+    interval_no_period: float | None = None
+    """the interval of a system without a period, in its time unit (None: interval_revs time
+    units)"""
+    align_revs: float | None = None
+    """revolutions after the transient over which the tangent vectors settle onto the leading
+    directions (discarded), rev"""
+    tangent_err: bool | None = None
+    """the tangent vectors take part in the step-size control (False: the state only, about half
+    the CPU time)"""
+    target_uncertainty: float | None = None
+    """relative uncertainty of lambda1 to average for (e.g. 0.05); None: the fixed span"""
+    max_total_factor: float | None = None
+    """with target_uncertainty: the averaging stops at this multiple of the measured span"""
+    n_blocks: int = 20
+    """blocks of the blocking estimate of the uncertainty"""
+    d0: float | None = None
+    """initial separation of the two-trajectory (Benettin) estimator, scaled norm"""
+    checks_per_period: int | None = None
+    """Benettin: separation checks per interval of a periodic system (early renormalisation)"""
+    max_growth: float | None = None
+    """Benettin: renormalise early when the separation exceeds max_growth x d0"""
+
+
+# --------------------------------------------------------------------------------------- instances
+
+SIMULATE = Integration()
+"""``nld.simulate`` / ``nld simulate`` (rtol: used when the scene recommends none)."""
+SECTIONS = Integration(rtol=1e-8)
+"""Poincaré sections (``stroboscopic``, ``hyperplane_section``) and bifurcation sweeps."""
+SPECTRUM = Integration(rtol=1e-8, samples_per_rev=720)
+"""``scene_spectrum`` / ``nld spectrum`` (720 samples per revolution: crank orders up to 360)."""
+LYAPUNOV = Integration(rtol=1e-10)
+"""Lyapunov exponents (both estimators), chaos maps, ``advance`` and ``stroboscopic_rhs``: a looser
+tolerance can change a verdict (docs/analysis.md)."""
+
+POINCARE_SPANS = Spans(transient_revs=100, revs=100)
+"""``stroboscopic`` / ``nld poincare``."""
+BIFURCATION_SPANS = Spans(transient_revs=100, revs=50)
+"""``sweep`` / ``nld bifurcation`` (per swept value)."""
+SPECTRUM_SPANS = Spans(transient_revs=10, revs=50)
+"""``scene_spectrum`` / ``nld spectrum``."""
+CHAOS_MAP_SPANS = Spans(transient_revs=20, revs=100)
+"""``chaos_map`` / ``nld chaos-map`` (per cell)."""
+TANGENT_SPANS = Spans(transient_revs=20.0, revs=200.0)
+"""``lyapunov_tangent`` / ``nld lyapunov`` (both estimators on the command line)."""
+BENETTIN_SPANS = Spans(transient_revs=20.0, revs=500.0)
+"""``lyapunov_benettin`` called without spans."""
+
+TANGENT = Renormalisation(interval_revs=1.0 / 8.0, interval_no_period=0.1, align_revs=2.0,
+                          tangent_err=True, max_total_factor=10.0)
+"""The tangent-dynamics estimator (``lyapunov_tangent``, ``nld lyapunov``)."""
+BENETTIN = Renormalisation(interval_revs=1.0, d0=1e-4, checks_per_period=32, max_growth=10.0)
+"""The two-trajectory estimator (``lyapunov_benettin``, ``nld lyapunov --estimator benettin``)."""
+
+
+def defaults_table() -> str:
+    """The defaults above as Markdown (docs/analysis.md, "Default settings"): per class a table of
+    its instances (what uses them, the value of every field; "-" where a field does not apply),
+    then what each field means, with its unit."""
+    field_docs, instance_docs = _docstrings()
+    g = globals()
+    out = []
+    for cls in (Integration, Spans, Renormalisation):
+        names = [n for n in __all__ if isinstance(g[n], cls)]
+        cols = [f.name for f in fields(cls)]
+        out.append(f"**{cls.__name__}** ({' '.join(cls.__doc__.split())})\n")
+        out.append("| instance | used by | " + " | ".join(f"`{c}`" for c in cols) + " |")
+        out.append("|---|---|" + "---|" * len(cols))
+        for n in names:
+            vals = [_fmt(getattr(g[n], c)) for c in cols]
+            out.append(f"| `{n}` | {' '.join(instance_docs[n].split())} | " + " | ".join(vals) + " |")
+        out.append("")
+        for c in cols:
+            out.append(f"- `{c}`: {' '.join(field_docs[cls.__name__][c].split())}")
+        out.append("")
+    return "\n".join(out)
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, (bool, str)):
+        return str(v)
+    if isinstance(v, float):
+        return f"{v:g}"
+    return f"{v:,}".replace(",", " ")
+
+
+def _docstrings() -> tuple[dict, dict]:
+    """({class: {field: docstring}}, {instance: docstring}) read from this module's source."""
+    import ast
+    from pathlib import Path
+
+    def pairs(body):
+        for a, b in zip(body, body[1:]):
+            if isinstance(b, ast.Expr) and isinstance(b.value, ast.Constant) \
+                    and isinstance(b.value.value, str):
+                if isinstance(a, ast.AnnAssign):
+                    yield a.target.id, b.value.value
+                elif isinstance(a, ast.Assign) and len(a.targets) == 1:
+                    yield a.targets[0].id, b.value.value
+
+    tree = ast.parse(Path(__file__).read_text())
+    classes = {node.name: dict(pairs(node.body)) for node in tree.body
+               if isinstance(node, ast.ClassDef)}
+    return classes, dict(pairs(tree.body))
