@@ -47,6 +47,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError
+from nld.settings import BIFURCATION_SPANS, SECTIONS
 from nld.sweeps.store import META_KEY, PROVENANCE, ResultStore  # noqa: F401 - META_KEY re-exported
 
 __all__ = ["sweep", "load_sweep", "parse_values", "check_values"]
@@ -266,10 +267,11 @@ def _plain_value(v):
     return float(v) if isinstance(v, int) else v
 
 
-def sweep(scene, param: str, values, *, transient_revs: int = 100, revs: int = 50,
-          observables=None, rtol: float = 1e-8, continuation: bool = False, up_down: bool = False,
+def sweep(scene, param: str, values, *, transient_revs: int = BIFURCATION_SPANS.transient_revs,
+          revs: int = BIFURCATION_SPANS.revs,
+          observables=None, rtol: float = SECTIONS.rtol, continuation: bool = False, up_down: bool = False,
           workers: int | None = None, dask=None, out=None, resume: bool = False,
-          lyapunov: bool = False, overrides=None, max_steps: int = 50_000_000,
+          lyapunov: bool = False, overrides=None, max_steps: int = SECTIONS.max_steps,
           period_tol: float = 1e-6, n_max: int = 16, lyapunov_revs: int | None = None,
           lyapunov_rtol: float | None = None, batch_size: int | None = None,
           progress=None, on_point=None, lyapunov_estimator: str = "tangent") -> pd.DataFrame:

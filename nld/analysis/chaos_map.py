@@ -64,6 +64,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.settings import CHAOS_MAP_SPANS, LYAPUNOV
 from nld.analysis import bifurcation as _bif
 from nld.errors import InputError
 from nld.sweeps.store import ResultStore
@@ -276,13 +277,14 @@ def _values(v, name):
     return [_bif._plain_value(a) for a in v]
 
 
-def chaos_map(scene, param_x, values_x, param_y, values_y, *, transient_revs: int = 20,
-              revs: int = 100, rtol: float = 1e-10, workers: int | None = None, dask=None,
+def chaos_map(scene, param_x, values_x, param_y, values_y, *,
+              transient_revs: int = CHAOS_MAP_SPANS.transient_revs,
+              revs: int = CHAOS_MAP_SPANS.revs, rtol: float = LYAPUNOV.rtol, workers: int | None = None, dask=None,
               out=None, resume: bool = False, base_overrides=None,
               lyapunov_revs: int | None = None, lyapunov_rtol: float | None = None,
               d0: float | None = None, seed: int = 0, observable: str | None = None,
               zero_one: dict | None = None, period_tol: float = 1e-6,
-              max_steps: int = 50_000_000, batch_size: int | None = None,
+              max_steps: int = LYAPUNOV.max_steps, batch_size: int | None = None,
               progress=None, rtol_check: float | None = None,
               lyapunov_method: str = "dopri5", estimator: str = "tangent",
               on_point=None) -> pd.DataFrame:

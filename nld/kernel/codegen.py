@@ -1123,25 +1123,21 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         "        zz = Z[i].copy()",
         "        observe(ts[i], Y[i], p, zz, rows[i])",
         "",
-        "@njit(cache=True)",
-        "def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
-        "          event_samples=EVENT_SAMPLES):",
-        "    # a module-level wrapper so that numba's disk cache holds the integrator specialised",
-        "    # for this kernel (a dispatcher passed from Python is never found in the cache)",
-        "    return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
-        "                  max_steps, n_events, max_log, event_samples)",
         "",
     ]
-    # the other integrators (simulate(method=...)), wrapped the same way; compiled on first use
-    for fn, mod in (("dop853", "dop853"), ("rodas", "rosenbrock")):
+    # one module-level wrapper per native method (nld.integrators.NATIVE), so that numba's disk
+    # cache holds the integrator specialised for this kernel (a dispatcher passed from Python is
+    # never found in the cache); methods other than dopri5 compile on first use
+    from nld.integrators import NATIVE
+    for module, fn, wrapper in NATIVE.values():
         out += [
-            f"from nld.integrators.{mod} import {fn}",
+            f"from nld.integrators.{module} import {fn}",
             "",
             "@njit(cache=True)",
-            f"def solve_{fn}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
-            "                event_samples=EVENT_SAMPLES):",
+            f"def {wrapper}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
+            "        event_samples=EVENT_SAMPLES):",
             f"    return {fn}(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
-            "                max_steps, n_events, max_log, event_samples)",
+            "        max_steps, n_events, max_log, event_samples)",
             "",
         ]
     try:

@@ -39,18 +39,16 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError, SolveError
-from nld.integrators.dop853 import dop853
-from nld.integrators import method_status_message
+from nld.integrators import NATIVE_METHODS, kernel_solver, method_status_message, native_integrator
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
 from nld.integrators.events import EVENT_SAMPLES, check_event_samples
 from nld.settings import LYAPUNOV
-from nld.integrators.rosenbrock import rodas
 
 __all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
            "lorenz", "duffing", "logistic", "henon", "linear", "SYSTEM_METHODS", "check_system_method"]
 
 DEFAULT_MAX_STEPS = LYAPUNOV.max_steps
-SYSTEM_METHODS = ("dopri5", "dop853", "rodas")
+SYSTEM_METHODS = NATIVE_METHODS
 
 
 def check_system_method(method, field: str = "method") -> str:
@@ -229,23 +227,12 @@ def _make_solver(rhs, events, on_event, method: str = "dopri5"):
     arguments would try to write dispatcher types into its disk-cache index, which fails once
     that index holds types of functions from other processes; inlined into this uncached
     closure it never touches the cache."""
-    if method == "dop853":
-        @njit
-        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
-                  event_samples):
-            return dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                          hmax, max_steps, n_events, max_log, event_samples)
-    elif method == "rodas":
-        @njit
-        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
-                  event_samples):
-            return rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                         hmax, max_steps, n_events, max_log, event_samples)
-    else:
-        @njit
-        def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
-                  event_samples):
-            return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+    integrator = native_integrator(method)     # a compile-time constant of the closure
+
+    @njit
+    def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+              event_samples):
+        return integrator(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
                           hmax, max_steps, n_events, max_log, event_samples)
     return solve
 
@@ -563,8 +550,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     except InputError:
         period = None
     mod = kern.module
-    solve = {"dopri5": mod.solve, "dop853": mod.solve_dop853,
-             "rodas": mod.solve_rodas}[check_system_method(method)]
+    solve = kernel_solver(mod, check_system_method(method))
     from nld.kernel.codegen import needs_onset_velocity
     memory = [ci for ci, jn in enumerate(kern.topo.clearance)
               if needs_onset_velocity(scene.joints[jn])]
