@@ -231,8 +231,9 @@ def fmt_cfg(r):
     return "–" if r is None else f"rtol {r['rtol']:.0e}: {r['cpu'] * 1e3:.3g} ms"
 
 
-def numbalsoda_table(nbs_nld, nbs, w) -> list[str]:
-    """The numbalsoda section's rows (markdown), one per error target."""
+def numbalsoda_table(nbs_nld, nbs, w) -> tuple[list[str], list[float]]:
+    """The numbalsoda section's rows (markdown), one per error target, and the ratio numbalsoda CPU /
+    nld CPU per target (nan where either misses it)."""
     out = ["numbalsoda has no events and one scalar rtol/atol; it integrates u = y / state_scales "
            "(so atol = tol is nld's absolute tolerance) with rtol = tol or 1e-3 tol. For both libraries "
            "the time is the cheaper of a run with 2 outputs and one with the error grid's "
@@ -241,6 +242,7 @@ def numbalsoda_table(nbs_nld, nbs, w) -> list[str]:
            "| target err / c | nld dopri5 | nld dop853 | best nld (rev/s) | numbalsoda lsoda | numbalsoda dop853 | "
            f"best numbalsoda (rev/s) | numbalsoda / nld | target >= {TARGET_NBS:g}x |",
            "|---|---|---|---|---|---|---|---|---|"]
+    ratios = []
     for target in TARGETS:
         c5, c8 = at_target(nbs_nld, "dopri5", target), at_target(nbs_nld, "dop853", target)
         nl = [at_target(nbs, f"numbalsoda:lsoda ({v})", target) for v in ("rtol = atol", "rtol = 1e-3 atol")]
@@ -257,7 +259,8 @@ def numbalsoda_table(nbs_nld, nbs, w) -> list[str]:
         out.append(f"| {target:g} | {cell(c5)} | {cell(c8)} | {bn['method'] + ' ' + format(w / bn['cpu'], '.4g') if bn else '–'} "
                    f"| {cell(bl)} | {cell(bd)} | {bb['method'] + ' ' + format(w / bb['cpu'], '.4g') if bb else '–'} "
                    f"| {ratio:.3g}x | {met} |")
-    return out + [""]
+        ratios.append(ratio)
+    return out + [""], ratios
 
 
 def hertz_damped_only(args, st, log):
@@ -319,7 +322,7 @@ def hertz_damped_only(args, st, log):
         out.append(f"| {target:g} | " + " | ".join("–" if cfg[m] is None else f"{cfg[m]['rtol']:.0e}: {cfg[m]['cpu'] * 1e3:.3g} ms"
                                                   for m in METHODS) + f" | {ratio:.3g}x | {met} |")
     out += ["", "## numbalsoda (same setup)", ""]
-    out += ([f"Not measured: {nbs}", ""] if isinstance(nbs, str) else numbalsoda_table(nbs_nld, nbs, w))
+    out += ([f"Not measured: {nbs}", ""] if isinstance(nbs, str) else numbalsoda_table(nbs_nld, nbs, w)[0])
     out += ["## All runs", "", "| contact | method | rtol | CPU (ms) | err / c | status | reference |",
             "|---|---|---|---|---|---|---|"]
     for lab, rows in (("hertz_damped", hd_rows), ("hertz_damped", nbs_nld),
@@ -408,33 +411,9 @@ def main(argv=None):
     if isinstance(nbs, str):
         out += [f"Not measured: {nbs}", ""]
     else:
-        out += ["numbalsoda has no events and one scalar rtol/atol; it integrates u = y / state_scales "
-                "(so atol = tol is nld's absolute tolerance) with rtol = tol or 1e-3 tol. For both libraries "
-                "the time is the cheaper of a run with 2 outputs and one with the error grid's "
-                f"{WINDOW_POINTS + 1} outputs (the error is measured on the latter). nld runs the same model "
-                "with simulate's arguments, contact events on (located; numbalsoda steps across the force kinks).", "",
-                "| target err / c | nld dopri5 | nld dop853 | best nld (rev/s) | numbalsoda lsoda | numbalsoda dop853 | "
-                f"best numbalsoda (rev/s) | numbalsoda / nld | target >= {TARGET_NBS:g}x |",
-                "|---|---|---|---|---|---|---|---|---|"]
-        for target in TARGETS:
-            c5, c8 = at_target(nbs_nld, "dopri5", target), at_target(nbs_nld, "dop853", target)
-            nl = [at_target(nbs, f"numbalsoda:lsoda ({v})", target) for v in ("rtol = atol", "rtol = 1e-3 atol")]
-            nd = [at_target(nbs, f"numbalsoda:dop853 ({v})", target) for v in ("rtol = atol", "rtol = 1e-3 atol")]
-            bl = min([r for r in nl if r], key=lambda r: r["cpu"], default=None)
-            bd = min([r for r in nd if r], key=lambda r: r["cpu"], default=None)
-            bn = min([r for r in (c5, c8) if r], key=lambda r: r["cpu"], default=None)
-            bb = min([r for r in (bl, bd) if r], key=lambda r: r["cpu"], default=None)
-            ratio = bb["cpu"] / bn["cpu"] if bb and bn else math.nan
-            w = nbs_setup.spec["window_revs"]
-            met = "–" if ratio != ratio else ("met" if ratio >= TARGET_NBS else "missed")
-
-            def cell(r):
-                return "–" if r is None else f"{r['method'].split(' ', 1)[-1] if 'numbalsoda' in r['method'] else ''} tol {r['rtol']:.0e}: {r['cpu'] * 1e3:.3g} ms".strip()
-            out.append(f"| {target:g} | {cell(c5)} | {cell(c8)} | {bn['method'] + ' ' + format(w / bn['cpu'], '.4g') if bn else '–'} "
-                       f"| {cell(bl)} | {cell(bd)} | {bb['method'] + ' ' + format(w / bb['cpu'], '.4g') if bb else '–'} "
-                       f"| {ratio:.3g}x | {met} |")
-            summary.append(dict(scene="slider_crank hertz_damped", target=target, nbs_ratio=ratio))
-        out += [""]
+        rows, ratios = numbalsoda_table(nbs_nld, nbs, nbs_setup.spec["window_revs"])
+        out += rows
+        summary += [dict(scene="slider_crank hertz_damped", target=t, nbs_ratio=r) for t, r in zip(TARGETS, ratios)]
 
     out += ["## All runs", "", "| scene | method | rtol | CPU (ms) | err / c | status | reference |", "|---|---|---|---|---|---|---|"]
     for scene, (setup, rows) in all_rows.items():

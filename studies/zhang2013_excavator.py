@@ -31,6 +31,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.output.io import json_default
+
 SCENE = "excavator"
 STEM = "zhang2013_excavator"
 TITLE = "Zhang et al. (2013) excavating linkage with two clearances: Figs 2-9 repeated"
@@ -322,7 +324,7 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
            "verdict": verdict(status, per, uper, n_pts),
            "section_points": n_pts, "status": status, "message": msg,
            "estimator": est.get("method"),
-           "estimator_settings": json.dumps(est, default=_json_default, sort_keys=True),
+           "estimator_settings": json.dumps(est, default=json_default, sort_keys=True),
            "wall_s": time.perf_counter() - t0}
     return tab, row
 
@@ -368,13 +370,6 @@ def estimator_line(pts: pd.DataFrame, period: float | None) -> str:
             texts.append(t)
     return "λ1: " + " | ".join(texts)
 
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
 
 
 def force_spectra(tables: dict, ts: float) -> dict:

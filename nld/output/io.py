@@ -42,7 +42,9 @@ def sidecar_path(path) -> Path:
     return p.with_name(p.name + ".json")
 
 
-def _json_default(o):
+def json_default(o):
+    """JSON form of what json does not know: numpy scalars and arrays, paths, sets, frames (anything
+    else: its str). The one converter of provenance and metadata (nld.sweeps.store uses it too)."""
     if isinstance(o, np.generic):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -58,11 +60,12 @@ def _json_default(o):
 
 def provenance_json(provenance: dict, indent: int | None = None) -> str:
     """JSON text of a provenance dict (numpy scalars and arrays, paths and the like made plain)."""
-    return json.dumps(provenance if provenance is not None else {}, default=_json_default, indent=indent,
+    return json.dumps(provenance if provenance is not None else {}, default=json_default, indent=indent,
                       allow_nan=True)
 
 
-def _write_atomic(path: Path, write) -> None:
+def write_atomic(path: Path, write) -> Path:
+    """``write(tmp)`` then rename tmp to ``path``: readers see the whole file or none."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         write(tmp)
@@ -70,6 +73,7 @@ def _write_atomic(path: Path, write) -> None:
     finally:
         if tmp.exists():
             tmp.unlink()
+    return path
 
 
 def save_table(df: pd.DataFrame, path, provenance: dict | None) -> Path:
@@ -90,11 +94,11 @@ def save_table(df: pd.DataFrame, path, provenance: dict | None) -> Path:
             meta = dict(table.schema.metadata or {})
             meta[METADATA_KEY] = text.encode("utf-8")
             table = table.replace_schema_metadata(meta)
-            _write_atomic(p, lambda tmp: pq.write_table(table, tmp))
+            write_atomic(p, lambda tmp: pq.write_table(table, tmp))
         else:
-            _write_atomic(p, lambda tmp: df.to_csv(tmp, index=False))
+            write_atomic(p, lambda tmp: df.to_csv(tmp, index=False))
         side = sidecar_path(p)
-        _write_atomic(side, lambda tmp: tmp.write_text(pretty, encoding="utf-8"))
+        write_atomic(side, lambda tmp: tmp.write_text(pretty, encoding="utf-8"))
     except OSError as e:
         raise InputError(f"cannot write {p}: {e.strerror or e}") from None
     return p

@@ -24,12 +24,11 @@ directory with finished points is refused without ``resume``. It then (re)writes
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
-import numpy as np
 
 from nld.errors import InputError
+from nld.output.io import json_default, write_atomic  # noqa: F401 (json_default re-exported)
 
 __all__ = ["ResultStore", "PROVENANCE", "META_KEY", "read_point", "json_default"]
 
@@ -38,30 +37,11 @@ META_KEY = b"nld_point"
 PATTERN = "point-*.parquet"
 
 
-def json_default(o):
-    """JSON form of numpy scalars and arrays (anything else: its str)."""
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
-
 
 def _plain(value) -> str:
     """Canonical JSON text of a setting (for comparing an old and a new provenance)."""
     return json.dumps(json.loads(json.dumps(value, default=json_default)), sort_keys=True)
 
-
-def _atomic(path: Path, write) -> Path:
-    """``write(tmp)`` then rename tmp to ``path``: readers see the whole file or none."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
 
 
 def read_point(path) -> dict:
@@ -134,7 +114,7 @@ class ResultStore:
             raise InputError(f"out = {str(self.path)!r} already holds {n} finished points: pass "
                              "resume=True (--resume) to continue that sweep, or use another directory")
         text = json.dumps(provenance, indent=2, default=json_default) + "\n"
-        _atomic(self.provenance_path, lambda tmp: tmp.write_text(text))
+        write_atomic(self.provenance_path, lambda tmp: tmp.write_text(text))
 
     # ---- points
 
@@ -151,7 +131,7 @@ class ResultStore:
         md = dict(table.schema.metadata or {})
         md[META_KEY] = json.dumps(meta, default=json_default).encode()
         table = table.replace_schema_metadata(md)
-        return _atomic(path, lambda tmp: pq.write_table(table, tmp))
+        return write_atomic(path, lambda tmp: pq.write_table(table, tmp))
 
     def files(self, group: str | None = None) -> list[Path]:
         """The finished point files (of one group), sorted by name."""
