@@ -92,17 +92,21 @@ def rhs(t, y, p, z, dy):
     fx = 0.0      # contact force on the rod (the slider gets -f)
     fy = 0.0
     delta = ecc - p[10]
-    # law 1: contact is a mode, z[0] > 0 from the located onset to the located loss (issue 14)
-    if delta > 0.0 and (p[16] == 0.0 or z[0] > 0.0):
+    # law 1: contact is a mode, z[0] > 0 from the located onset to the located loss (issue 14);
+    # in the mode the damping C ddot acts also at delta <= 0 (the located onset has delta = 0 only
+    # to the root tolerance: docs/contact-laws.md, "Modes")
+    if (p[16] == 0.0 and delta > 0.0) or (p[16] != 0.0 and z[0] > 0.0 and ecc > 0.0):
         nx = ex / ecc
         ny = ey / ecc
         ddot = (y[2] - vbx) * nx - vby * ny
-        dn = delta ** p[12]
         if p[16] == 0.0:
+            dn = delta ** p[12]
             vm = z[0] if z[0] > 0.0 else p[14]
             f = p[11] * dn * (1.0 + 0.75 * (1.0 - p[13] * p[13]) * ddot / vm)
         else:
-            f = p[11] * dn + p[15] * ddot
+            f = p[15] * ddot
+            if delta > 0.0:
+                f += p[11] * delta ** p[12]
         if f > 0.0:
             fx = f * nx
             fy = f * ny
