@@ -231,6 +231,22 @@ def fmt_cfg(r):
     return "–" if r is None else f"rtol {r['rtol']:.0e}: {r['cpu'] * 1e3:.3g} ms"
 
 
+def run_row(label: str, r: dict) -> str:
+    """One row of the "All runs" table (numbalsoda rows with both output timings)."""
+    extra = (f" (2 outputs {r['cpu_end'] * 1e3:.4g}, {WINDOW_POINTS + 1} outputs {r['cpu_fine'] * 1e3:.4g})"
+             if "cpu_end" in r else "")
+    return (f"| {label} | {r['method']} | {r['rtol']:.0e} | {r['cpu'] * 1e3:.4g}{extra} | {r['err']:.3g} | "
+            f"{r['status']} | {r['ref']} |")
+
+
+def write_out(lines: list[str], path) -> None:
+    """The report's markdown to ``path`` (folders made) and to stdout."""
+    text = "\n".join(lines) + "\n"
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(text)
+    print(text)
+
+
 def numbalsoda_table(nbs_nld, nbs, w) -> tuple[list[str], list[float]]:
     """The numbalsoda section's rows (markdown), one per error target, and the ratio numbalsoda CPU /
     nld CPU per target (nan where either misses it)."""
@@ -327,14 +343,8 @@ def hertz_damped_only(args, st, log):
             "|---|---|---|---|---|---|---|"]
     for lab, rows in (("hertz_damped", hd_rows), ("hertz_damped", nbs_nld),
                       ("hertz_damped", [] if isinstance(nbs, str) else nbs), ("LN", ln_rows)):
-        for r in rows:
-            extra = f" (2 outputs {r['cpu_end'] * 1e3:.4g}, {WINDOW_POINTS + 1} outputs {r['cpu_fine'] * 1e3:.4g})" if "cpu_end" in r else ""
-            out.append(f"| {lab} | {r['method']} | {r['rtol']:.0e} | {r['cpu'] * 1e3:.4g}{extra} | {r['err']:.3g} | "
-                       f"{r['status']} | {r['ref']} |")
-    text = "\n".join(out) + "\n"
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
-    print(text)
+        out += [run_row(lab, r) for r in rows]
+    write_out(out, args.out)
 
 
 def main(argv=None):
@@ -417,16 +427,9 @@ def main(argv=None):
 
     out += ["## All runs", "", "| scene | method | rtol | CPU (ms) | err / c | status | reference |", "|---|---|---|---|---|---|---|"]
     for scene, (setup, rows) in all_rows.items():
-        for r in rows:
-            out.append(f"| {scene} | {r['method']} | {r['rtol']:.0e} | {r['cpu'] * 1e3:.4g} | {r['err']:.3g} | {r['status']} | {r['ref']} |")
-    for r in nbs_nld + ([] if isinstance(nbs, str) else nbs):
-        extra = f" (2 outputs {r['cpu_end'] * 1e3:.4g}, {WINDOW_POINTS + 1} outputs {r['cpu_fine'] * 1e3:.4g})" if "cpu_end" in r else ""
-        out.append(f"| slider_crank hertz_damped | {r['method']} | {r['rtol']:.0e} | {r['cpu'] * 1e3:.4g}{extra} | "
-                   f"{r['err']:.3g} | {r['status']} | {r['ref']} |")
-    text = "\n".join(out) + "\n"
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
-    print(text)
+        out += [run_row(scene, r) for r in rows]
+    out += [run_row("slider_crank hertz_damped", r) for r in nbs_nld + ([] if isinstance(nbs, str) else nbs)]
+    write_out(out, args.out)
     return summary
 
 
