@@ -2,8 +2,8 @@
 
 The suite runs on 2 workers with ``--dist loadfile --no-loadscope-reorder`` (pyproject.toml), which
 hands out whole files, one or two at a time to whichever worker is free, in
-collection order. Alphabetical order put the longest files (tangent dynamics, the zhang2013 main
-job) last, so one worker ran them alone at the end of a cold run. Starting with them lets the short
+collection order. xdist's default order (by number of tests) left long files with few tests
+(tangent dynamics, the zhang2013 main job) to the end of a cold run, where one worker ran them alone. Starting with them lets the short
 files fill the other worker's time. Only the order changes; every test still runs.
 """
 from __future__ import annotations
