@@ -13,7 +13,8 @@ import numba
 
 @numba.njit(cache=True, inline="always")
 def elastic_force(delta, K, n):
-    """The elastic (conservative) part K delta^n (N) of every law; 0 for delta <= 0.
+    """The elastic (conservative) part K delta^n (N) of every law; 0 for delta <= 0 (Hertz point
+    contact, references section 4; the seed paper's eqs 6 and 8 without damping).
 
     delta (m), K (N/m^n), n (-). The kernels' power balance takes the non-conservative part of a
     law as its force minus this."""

@@ -26,8 +26,10 @@ def hertz_damped(delta, ddot, K, n, C):
 
 @numba.njit(cache=True, inline="always")
 def hertz_damped_unclamped(delta, ddot, K, n, C):
-    """K delta^n + C ddot (N) for delta >= 0, without the clamp at zero: its zero during
-    restitution is the located clamp event (the force's kink), docs/contact-laws.md "Modes"."""
+    """K delta^n + C ddot (N) for delta >= 0, without the clamp at zero: the seed paper's force
+    (Zhang, Liu, Xu, Hou 2013, eqs 6-9) before ``max(., 0)``. delta (m, negative taken as 0), ddot
+    (m/s), K (N/m^n), n (-), C (N s/m). Its zero during restitution is the located clamp event
+    (the force's kink), docs/contact-laws.md "Modes"."""
     return K * max(delta, 0.0)**n + C * ddot
 
 
@@ -35,7 +37,8 @@ def hertz_damped_unclamped(delta, ddot, K, n, C):
 def hertz_damped_contact(delta, ddot, K, n, C):
     """hertz_damped in a kernel's contact mode (N): F = max(K max(delta, 0)^n + C ddot, 0).
 
-    Same units as ``hertz_damped``. The mode runs from the located onset (delta = 0) to the
+    The seed paper's force (Zhang et al. 2013, eqs 6-9); delta (m), ddot (m/s), K (N/m^n), n (-),
+    C (N s/m), as ``hertz_damped``. The mode runs from the located onset (delta = 0) to the
     located clamp (K delta^n + C ddot = 0), so the only difference to ``hertz_damped`` is at
     delta <= 0: the damping term C ddot is kept. The onset state is delta = 0 only to the root
     tolerance, of either sign (|delta| ~ 1e-12 m measured); ``hertz_damped`` would give 0 there
