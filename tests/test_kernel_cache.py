@@ -33,3 +33,15 @@ def test_cache_key_covers_every_module_the_kernel_calls():
     assert used, "the generated kernel imports nothing from nld?"
     missing = sorted(str(f) for f in used - deps)
     assert not missing, f"not in the kernel cache key: {missing}"
+
+
+def test_scenes_of_the_same_structure_share_one_kernel():
+    """slider_crank_olyaei is slider_crank with Ambrosio friction and other numbers: with that law
+    set, one generated module (and one set of compiled integrators) serves both; a change of
+    structure (the contact law) gives another."""
+    a = compile_scene(load_scene("slider_crank", ['joints.B.friction.law="ambrosio"',
+                                                  "joints.B.friction.mu=0.1"]))
+    b = compile_scene(load_scene("slider_crank_olyaei"))
+    assert a.source_path == b.source_path and a.module is b.module
+    c = compile_scene(load_scene("slider_crank_olyaei", ['joints.B.contact.law="hertz"']))
+    assert c.source_path != a.source_path

@@ -1127,17 +1127,27 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
     ]
     # one module-level wrapper per native method (nld.integrators.NATIVE), so that numba's disk
     # cache holds the integrator specialised for this kernel (a dispatcher passed from Python is
-    # never found in the cache); methods other than dopri5 compile on first use
+    # never found in the cache); methods other than dopri5 compile on first use. The Python
+    # function in front of each fixes the argument types (event_samples always given, arrays
+    # writable and contiguous, scalars float/int): one compiled specialisation per method
     from nld.integrators import NATIVE
+    out += ["from nld.kernel.support import writable_vector", ""]
     for module, fn, wrapper in NATIVE.values():
         out += [
             f"from nld.integrators.{module} import {fn}",
             "",
             "@njit(cache=True)",
-            f"def {wrapper}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
-            "        event_samples=EVENT_SAMPLES):",
+            f"def {wrapper}_jit(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,",
+            "        max_log, event_samples):",
             f"    return {fn}(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
             "        max_steps, n_events, max_log, event_samples)",
+            "",
+            "",
+            f"def {wrapper}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
+            "        event_samples=EVENT_SAMPLES):",
+            f"    return {wrapper}_jit(float(t0), writable_vector(y0), writable_vector(t_eval), bool(land), p, z,",
+            "        float(rtol), writable_vector(atol), float(h0), float(hmax), int(max_steps), int(n_events),",
+            "        int(max_log), int(event_samples))",
             "",
         ]
     try:

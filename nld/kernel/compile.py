@@ -2,7 +2,9 @@
 
 The generated source is written to ``$NLD_CACHE_DIR`` (default ``~/.cache/nld/kernels``) under a name
 that is the hash of the scene's *structure* (codegen.structure_key) and of nld's version, so numba's
-on-disk cache (``cache=True``) is reused across processes and numbers never enter the key.
+on-disk cache (``cache=True``) is reused across processes and numbers never enter the key. The scene's
+name is not in the key either: two scenes of the same structure share one kernel (and its compiled
+integrators).
 """
 from __future__ import annotations
 
@@ -137,7 +139,9 @@ def compile_scene(scene: Scene) -> Kernel:
     key_src = json.dumps({"v": __version__, "g": _generator_digest(), "s": structure_key(scene, topo),
                           "p": layout.names}, sort_keys=True, default=str)
     key = hashlib.sha1(key_src.encode()).hexdigest()[:16]
-    name = f"nld_kernel_{scene.name}_{key}"
+    # the name is the key alone: scenes that differ only in numbers (slider_crank and
+    # slider_crank_olyaei) generate the same source and share one compiled kernel
+    name = f"nld_kernel_{key}"
     path = cache_dir() / f"{name}.py"
     if not path.exists():
         src = generate(scene, topo, layout)

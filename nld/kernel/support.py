@@ -26,3 +26,14 @@ def periodic_table(angle, p, ia, iv, n):
     if a1 == a0:
         return v0
     return v0 + (v1 - v0) * (a - a0) / (a1 - a0)
+
+
+def writable_vector(a) -> np.ndarray:
+    """``a`` as a writable, C-contiguous float64 array (itself when it already is one, else a copy).
+
+    numba compiles one specialisation per argument type, and a read-only array (a pandas
+    column, a broadcast) is another type than a writable one: the generated ``solve`` wrappers
+    pass every array through this so that one compiled integrator serves every caller."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64)

@@ -15,6 +15,7 @@ import pandas as pd
 from nld.errors import InputError, InputTypeError, Interrupted, SolveError
 from nld.interrupt import deferred
 from nld.kernel.compile import Kernel, compile_scene
+from nld.kernel.support import writable_vector
 from nld.progress import progress_bar
 from nld.settings import SIMULATE
 from nld.model.scene_model import Scene
@@ -323,7 +324,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         n = output_rows(scene, t_end - t0, samples_per_rev, len(kern.columns),
                         "revs" if revs is not None else "t_end")
         t_eval = np.linspace(t0, t_end, n)
-    t_eval = np.ascontiguousarray(t_eval, dtype=float)
+    t_eval = writable_vector(t_eval)        # one compiled observe_all / solve for every caller
     if y0 is None or z0 is None:
         y0_, z0_, q_init = initial_state(kern)
         y0 = y0_ if y0 is None else _state_arg("y0", y0, kern.n_state)
