@@ -34,7 +34,8 @@ What it gives (all of it written once here, so that studies do not repeat it):
 * the helpers several studies need: :func:`sde` (is SOURCE_DATE_EPOCH set: leave timings out),
   :func:`timing` / :func:`drop_timing` (a timing, or "not shown" under SOURCE_DATE_EPOCH),
   :func:`verdict` (chaotic / regular / uncertain from an exponent, its uncertainty and the
-  section length).
+  section length) and :func:`checked_verdict` (a verdict holds only if a run at a tighter
+  tolerance over a longer span gives the same).
 
 The numbers a study writes do not depend on the scaffold: it only names, places and labels them.
 """
@@ -46,10 +47,11 @@ from pathlib import Path
 from types import SimpleNamespace
 
 __all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict",
-           "NOT_SHOWN", "SHORT"]
+           "checked_verdict", "NOT_SHOWN", "SHORT", "NOT_ESTABLISHED"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
 SHORT = "λ1 > 0, short"
+NOT_ESTABLISHED = "not established"
 _SETTINGS = {"full": "FULL", "quick": "QUICK", "smoke": "SMOKE"}
 
 
@@ -96,6 +98,22 @@ def verdict(lam: float, unc: float, n_points: int, min_points: int, failed: bool
     if lam - unc > 0:
         return "chaotic" if n_points >= min_points else SHORT
     return "uncertain"
+
+
+def checked_verdict(main: str, check: str | None) -> str:
+    """The verdict that survives the check, or 'not established'.
+
+    main: the verdict (:func:`verdict`) at the study's tolerance and averaging span; check: the
+    verdict of the same point at a tighter tolerance over a longer span (None: not checked, main
+    is returned). A chaos verdict holds only if it survives a change of tolerance and of averaging
+    time (DEVELOPERS.md, Standards): equal verdicts are kept; 'failed' on either side is 'failed';
+    any other disagreement (chaotic at one setting, regular or uncertain at the other: an
+    intermittent or tolerance-dependent motion) is 'not established'."""
+    if check is None or check == main:
+        return main
+    if "failed" in (main, check):
+        return "failed"
+    return NOT_ESTABLISHED
 
 
 def work_dir(out_dir, stem: str, mode: str, name: str) -> Path:

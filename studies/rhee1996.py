@@ -14,13 +14,16 @@ Effect of the clearance size and of the friction coefficient on the regularity o
 
 Outputs in ``out_dir``: ``rhee1996.pdf``; ``rhee1996.parquet`` (the sampled runs of the six cases,
 ``case`` first); ``rhee1996_sections.parquet`` (section points per case, with ``B.ex/c``, ``B.ey/c``:
-the eccentricity over the case's clearance, as plotted); ``rhee1996_sweeps.parquet`` (both sweeps,
-``sweep`` first, as ``nld.analysis.bifurcation.load_sweep``, with ``B.ex/c``, ``B.ey/c``); ``rhee1996_spectra.parquet``;
+the eccentricity over the case's clearance, as plotted); ``rhee1996_sweeps.parquet`` (both sweeps and
+their checks, ``case`` = clearance, friction, clearance_check, friction_check first, as
+``nld.analysis.bifurcation.load_sweep``, with ``B.ex/c``, ``B.ey/c``); ``rhee1996_spectra.parquet``;
 ``rhee1996_summary.csv`` (the per-case table printed in the report: its max_Fn is the maximum of
 ``B.Fn`` over that case's rows of ``rhee1996.parquet``, its lambda that of the case's exponent).
 
 A case or sweep point is called chaotic only when lambda - uncertainty > 0 over a section of at least
-MIN_SECTION_POINTS points; every exponent in the report states its estimator, tolerance, averaging
+MIN_SECTION_POINTS points, and a verdict holds only if a run at ``rtol_check`` over ``check_span``
+times the averaging span agrees (else 'not established'; the cases from the same state, the sweep
+points not called regular again from the assembly); every exponent in the report states its estimator, tolerance, averaging
 span and uncertainty from the result's own settings.
 """
 from __future__ import annotations
@@ -44,10 +47,11 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
             clearances=[0.02e-3, 0.03e-3, 0.05e-3, 0.075e-3, 0.1e-3, 0.15e-3, 0.2e-3, 0.25e-3,
                         0.3e-3, 0.4e-3, 0.5e-3],
             frictions=[0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.08, 0.1, 0.15, 0.2, 0.3],
-            workers=2)
+            rtol_check=1e-10, check_span=2, workers=2)
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
              samples_per_rev=360, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
-             clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3], workers=1)
+             clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
+             rtol_check=1e-8, check_span=2, workers=1)
 MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
 
 # name -> (group, overrides, clearance [m], mu)
@@ -71,7 +75,7 @@ EC_LIM = 1.15
 
 
 VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
-                  "uncertain": "0.5"}
+                  "uncertain": "0.5", "not established": "tab:olive"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
@@ -80,6 +84,15 @@ def verdict(lam: float, unc: float, n_points: int) -> str:
     """nld.study.verdict with this study's MIN_SECTION_POINTS ('chaotic' needs that many)."""
     from nld.study import verdict as _verdict
     return _verdict(lam, unc, n_points, MIN_SECTION_POINTS)
+
+
+def check_text(st) -> str:
+    """How a verdict is checked (report text)."""
+    return (f"A verdict holds only if it survives a change of tolerance and of averaging span: every "
+            f"case's exponent is computed again from the same state at rtol {st['rtol_check']:g} over "
+            f"{st['check_span']}x the span, and every sweep point not called regular is run again from "
+            f"the assembly at rtol {st['rtol_check']:g} with {st['check_span']}x the averaging span; "
+            "where the two verdicts differ the point is 'not established' (nld.study.checked_verdict).")
 
 
 def estimator_line(settings: dict, period: float | None) -> str:
@@ -132,7 +145,7 @@ def run_case(name, st):
     n_sec = int(len(sec.table))
     row = {"case": name, "group": CASES[name][0], "clearance_mm": c * 1e3, "mu": mu,
            "lambda_per_rev": lyap.per_revolution, "lambda_unc_per_rev": lyap.uncertainty_per_revolution,
-           "verdict": verdict(lyap.per_revolution, lyap.uncertainty_per_revolution, n_sec),
+           "verdict_main": verdict(lyap.per_revolution, lyap.uncertainty_per_revolution, n_sec),
            "section_points": n_sec, "section_period": int(per),
            "max_Fn": float(np.max(fn)), "rms_Fn": float(np.sqrt(np.mean(fn ** 2))),
            "contact_fraction": float(np.mean(fn > 0)),
@@ -140,6 +153,34 @@ def run_case(name, st):
            "status": "ok" if (sec.success and run.success) else f"{sec.message} / {run.message}",
            "wall_s": time.perf_counter() - t0}
     return dict(section=sec, lyap=lyap, table=tab, spectrum=spec, peaks=pk, row=row)
+
+
+def check_case(name, y, z, st, period):
+    """The case's exponent again from the same state (the end of its section) at rtol_check over
+    check_span x the averaging span: the verdict check (nld.study.checked_verdict)."""
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.systems.core import SceneSystem
+    t0 = time.perf_counter()
+    system = SceneSystem(SCENE, CASES[name][1])
+    system.y0 = np.array(y, float)
+    system.z0 = np.array(z, float)
+    lyap = lyapunov_tangent(system, transient=0.0, total=st["check_span"] * st["lyap_revs"] * period,
+                            rtol=st["rtol_check"])
+    return {"lambda_check": lyap.per_revolution, "lambda_check_unc": lyap.uncertainty_per_revolution,
+            "check_wall_s": time.perf_counter() - t0, "check_settings": dict(lyap.settings)}
+
+
+def add_case_checks(res, checks, st):
+    """Put each case's check into its row: lambda_check, lambda_check_unc, verdict_check and the
+    final verdict (nld.study.checked_verdict of the main and the check verdicts)."""
+    from nld.study import checked_verdict
+    for name, chk in zip(CASES, checks):
+        row = res[name]["row"]
+        row["lambda_check"] = chk["lambda_check"]
+        row["lambda_check_unc"] = chk["lambda_check_unc"]
+        row["verdict_check"] = verdict(chk["lambda_check"], chk["lambda_check_unc"], row["section_points"])
+        row["verdict"] = checked_verdict(row["verdict_main"], row["verdict_check"])
+        res[name]["check_settings"] = chk["check_settings"]
 
 
 def run_sweeps(st):
@@ -175,9 +216,48 @@ def sweep_points(df: pd.DataFrame, period: float, clearance=None) -> pd.DataFram
     return pd.DataFrame({"value": first["value"].astype(float).to_numpy(),
                          "lambda_per_rev": lam, "lambda_unc_per_rev": unc,
                          "section_points": np.array(npts, dtype=int),
-                         "verdict": [verdict(a, b, n) for a, b, n in zip(lam, unc, npts)],
+                         "verdict_main": [verdict(a, b, n) for a, b, n in zip(lam, unc, npts)],
                          "period": np.array(periods, dtype=int),
                          "status": first["status"].to_numpy()})
+
+
+def sweep_checks(st, pts_c, pts_f, clearance):
+    """The verdict check of the sweeps: every point not called regular is run again from the
+    assembly (transient, section, exponent) at rtol_check with check_span x the averaging span.
+    Returns ({sweep: check sweep table or None}, wall time)."""
+    from nld.analysis.bifurcation import sweep
+    kw = dict(transient_revs=st["sweep_transient"], revs=st["sweep_revs"], observables=["B.ex", "B.ey"],
+              rtol=st["rtol_check"], lyapunov=True, lyapunov_revs=st["check_span"] * st["sweep_lyap"],
+              lyapunov_rtol=st["rtol_check"], workers=st["workers"])
+    out = {}
+    t0 = time.perf_counter()
+    for name, param, pts in (("clearance", "joints.B.clearance", pts_c),
+                             ("friction", "joints.B.friction.mu", pts_f)):
+        vals = [float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != "regular"]
+        out[name] = sweep(SCENE, param, vals, **kw) if vals else None
+    return out, time.perf_counter() - t0
+
+
+def add_sweep_checks(pts, chk, period, clearance=None):
+    """pts with lambda_check, lambda_check_unc, verdict_check (empty where not checked) and the
+    final verdict (nld.study.checked_verdict)."""
+    from nld.study import checked_verdict
+    pts = pts.copy()
+    lam_c = np.full(len(pts), np.nan)
+    unc_c = np.full(len(pts), np.nan)
+    v_c = [""] * len(pts)
+    if chk is not None:
+        cp = sweep_points(chk, period, clearance).set_index("value")
+        for i, v in enumerate(pts["value"].astype(float)):
+            if v in cp.index:
+                lam_c[i] = cp.loc[v, "lambda_per_rev"]
+                unc_c[i] = cp.loc[v, "lambda_unc_per_rev"]
+                v_c[i] = cp.loc[v, "verdict_main"] if cp.loc[v, "status"] == "ok" else "failed"
+    pts["lambda_check"] = lam_c
+    pts["lambda_check_unc"] = unc_c
+    pts["verdict_check"] = v_c
+    pts["verdict"] = [checked_verdict(m, c or None) for m, c in zip(pts["verdict_main"], v_c)]
+    return pts
 
 
 def with_ec(df: pd.DataFrame, clearance=None) -> pd.DataFrame:
@@ -287,7 +367,8 @@ def _fig_sweep(rep, sw, pts, xlabel, title, param_scale, log, clearance, period,
                             "exponent from the end of each section (both sweeps on the same λ1 range); "
                             "chaotic: λ1 − uncertainty > 0 over at least "
                             f"{MIN_SECTION_POINTS} section points ('λ1 > 0, short' below that), regular: "
-                            "λ1 + uncertainty < 0; 'Pn' marks a section that repeats with period n "
+                            "λ1 + uncertainty < 0, each confirmed by a run at a tighter tolerance over a "
+                            "longer span ('not established' where that run disagrees); 'Pn' marks a section that repeats with period n "
                             "(nld.analysis.poincare.period_of: points repeating to 1e-6 of the clearance). "
                             f"λ1: {est}.")
 
@@ -391,8 +472,8 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
         f"rtol {st['rtol']:g} everywhere (absolute tolerances scaled by the clearance). A case or a sweep "
         f"point is called chaotic only when λ1 - uncertainty > 0 over a section of at least "
         f"{MIN_SECTION_POINTS} points (a positive exponent over a shorter section reads 'λ1 > 0, short'); "
-        "regular when λ1 + uncertainty < 0. Eccentricities are shown over the clearance (e/c, ±1 = "
-        "touching the bearing) so that different clearances compare.",
+        "regular when λ1 + uncertainty < 0. " + check_text(st) + " Eccentricities are shown over the "
+        "clearance (e/c, ±1 = touching the bearing) so that different clearances compare.",
     ]
     ok_c = pts_c[pts_c["status"] == "ok"]
     ok_f = pts_f[pts_f["status"] == "ok"]
@@ -497,17 +578,33 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     st["workers"] = study.workers(st["workers"])
     base = load_scene(SCENE)
     period = crank_period(base)
-    res = {name: run_case(name, st) for name in CASES}
+    study.stage("cases")
+    res = dict(zip(CASES, study.map(run_case, [(n, st) for n in CASES], st["workers"])))
+    study.stage("case checks")
+    checks = study.map(check_case, [(n, res[n]["section"].y_final, res[n]["section"].z_final, st, period)
+                                    for n in CASES], st["workers"])
+    add_case_checks(res, checks, st)
+    study.stage("sweeps")
     sweeps, sweep_wall = run_sweeps(st)
+    c_f = base.joints["B"].clearance
     pts_c = sweep_points(sweeps["clearance"], period)
-    pts_f = sweep_points(sweeps["friction"], period, clearance=base.joints["B"].clearance)
+    pts_f = sweep_points(sweeps["friction"], period, clearance=c_f)
+    study.stage("sweep checks")
+    chk, check_wall = sweep_checks(st, pts_c, pts_f, c_f)
+    pts_c = add_sweep_checks(pts_c, chk["clearance"], period)
+    pts_f = add_sweep_checks(pts_f, chk["friction"], period, clearance=c_f)
+    sweeps.update({f"{k}_check": v for k, v in chk.items() if v is not None})
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
     wall = study.elapsed()
     study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
                      cases={n: {"overrides": CASES[n][1]} for n in CASES},
                      summary=summary.to_dict(orient="records"), sweep_wall_s=sweep_wall, compute_wall_s=wall,
-                     min_section_points=MIN_SECTION_POINTS,
+                     sweep_check_wall_s=check_wall, min_section_points=MIN_SECTION_POINTS,
+                     verdict_check=check_text(st),
                      case_estimator={n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
+                     case_check_estimator={n: estimator_line(res[n]["check_settings"], period) for n in CASES},
+                     sweep_points={"clearance": pts_c.to_dict(orient="records"),
+                                   "friction": pts_f.to_dict(orient="records")},
                      sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
                                       for k, v in sweeps.items()})
     _save(study, base, res, sweeps, summary)
@@ -519,9 +616,9 @@ def _save(study, base, res, sweeps, summary):
     study.save(".parquet", {n: res[n]["table"] for n in CASES})
     # sections and sweeps with the eccentricity over the clearance (B.ex/c, B.ey/c) as plotted
     study.save("_sections.parquet", {n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES})
-    study.save("_sweeps.parquet", {
-        "clearance": with_ec(sweeps["clearance"]).reset_index(drop=True),
-        "friction": with_ec(sweeps["friction"], base.joints["B"].clearance).reset_index(drop=True)})
+    c_f = base.joints["B"].clearance
+    study.save("_sweeps.parquet", {k: with_ec(v, None if k.startswith("clearance") else c_f).reset_index(drop=True)
+                                   for k, v in sweeps.items()})
     study.save("_spectra.parquet", {n: pd.DataFrame(res[n]["spectrum"]) for n in CASES})
     study.save("_summary.csv", summary)
 
@@ -531,6 +628,8 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
     st, mode_label, prov = study.settings, study.label, study.prov
     shown = summary.drop(columns=["group", "status"] + (["wall_s"] if sde() else []))
     shown = shown.rename(columns={"clearance_mm": "c", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
+                                  "verdict_main": "verdict 1", "lambda_check": "λ1 check",
+                                  "lambda_check_unc": "± check", "verdict_check": "verdict 2",
                                   "section_period": "period", "section_points": "points",
                                   "contact_fraction": "in contact",
                                   "peak_orders": "peak orders", "wall_s": "wall"})
@@ -548,12 +647,14 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
         rep.text_page("What this report reproduces", intro)
         rep.text_page("What we found", found)
         rep.table("Cases: exponent, section period, contact force, spectral peaks", shown,
-                  col_units={"c": "mm", "λ1": "1/rev", "± unc": "1/rev", "max_Fn": "N", "rms_Fn": "N",
-                             "wall": "s"},
+                  col_units={"c": "mm", "λ1": "1/rev", "± unc": "1/rev", "λ1 check": "1/rev",
+                             "± check": "1/rev", "max_Fn": "N", "rms_Fn": "N", "wall": "s"},
                   notes=["λ1 ± unc: largest Lyapunov exponent per crank revolution (lambda_per_rev, "
-                         "lambda_unc_per_rev in the CSV); verdict 'chaotic' if λ1 - unc > 0 and the section "
+                         "lambda_unc_per_rev in the CSV); verdict 1 'chaotic' if λ1 - unc > 0 and the section "
                          f"has at least {MIN_SECTION_POINTS} points ('λ1 > 0, short' below that), 'regular' if "
-                         f"λ1 + unc < 0. λ1: {prov['case_estimator'][next(iter(CASES))]}. points: section "
+                         f"λ1 + unc < 0. λ1: {prov['case_estimator'][next(iter(CASES))]}. λ1 check, verdict 2: "
+                         f"{prov['case_check_estimator'][next(iter(CASES))]}, from the same state. verdict: "
+                         "verdict 1 where verdict 2 agrees, else 'not established'. points: section "
                          "points. period: period of the "
                          "Poincaré section (points repeat to 1e-6 of the clearance; 0 = none up to 16). max_Fn, rms_Fn, in contact (fraction of samples with B.Fn > 0): over "
                          f"the sampled run stored in {STEM}.parquet (B.Fn). peak_orders: crank orders of "
@@ -562,15 +663,20 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
         sw_table = pd.concat([pts_c.assign(sweep="clearance", value=pts_c["value"] * 1e3),
                               pts_f.assign(sweep="friction mu")], ignore_index=True)
         sw_table = sw_table[["sweep", "value", "lambda_per_rev", "lambda_unc_per_rev", "section_points",
-                             "verdict", "period", "status"]].rename(
-            columns={"section_points": "points", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc"})
+                             "verdict_main", "lambda_check", "verdict_check", "verdict", "period",
+                             "status"]].rename(
+            columns={"section_points": "points", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
+                     "verdict_main": "verdict 1", "lambda_check": "λ1 check", "verdict_check": "verdict 2"})
         se = prov["sweep_estimator"]
         se_text = (f"λ1 (both sweeps): {se['clearance']}." if se["clearance"] == se["friction"] else
                    f"λ1 (clearance sweep): {se['clearance']}. λ1 (friction sweep): {se['friction']}.")
         rep.table("Sweeps: largest exponent and section period per point", sw_table,
-                  col_units={"value": "mm or −", "λ1": "1/rev", "± unc": "1/rev"},
-                  notes=[f"{se_text} verdict as in the case table (at least "
-                         f"{MIN_SECTION_POINTS} section points for 'chaotic'). "
+                  col_units={"value": "mm or −", "λ1": "1/rev", "± unc": "1/rev", "λ1 check": "1/rev"},
+                  notes=[f"{se_text} verdict 1 as in the case table (at least "
+                         f"{MIN_SECTION_POINTS} section points for 'chaotic'). verdict 2: the point run "
+                         f"again from the assembly at rtol {st['rtol_check']:g} with {st['check_span']}x the "
+                         "averaging span (points called regular by verdict 1 are not run again; blank). "
+                         "verdict: verdict 1 where verdict 2 agrees, else 'not established'. "
                          "value: clearance in mm, or the friction coefficient. period: of the section, "
                          "points repeating to 1e-6 of the clearance (0 = none up to 16). Stored in "
                          f"{STEM}_sweeps.parquet (lyapunov in 1/s; x period {period:.4g} s = per rev)."],

@@ -58,7 +58,8 @@ def test_sweep_exponents_match_table(quick_run):
     study, out, _ = quick_run
     sweeps, prov = load_table(out / "rhee1996_sweeps.parquet")
     period = 2 * np.pi / prov["scene_parameters"]["driver"]["speed"]
-    assert set(sweeps["case"]) == {"clearance", "friction"}
+    assert {"clearance", "friction"} <= set(sweeps["case"]) <= {"clearance", "friction", "clearance_check",
+                                                                   "friction_check"}
     sw = sweeps[sweeps["case"] == "friction"]
     fr = sw.drop_duplicates("index")
     assert sorted(fr["value"].astype(float)) == sorted(study.QUICK["frictions"])
@@ -79,9 +80,38 @@ def test_verdicts_need_the_minimum_section(quick_run):
         expect = ("regular" if lam + unc < 0 else
                   ("chaotic" if r["section_points"] >= study.MIN_SECTION_POINTS else "λ1 > 0, short")
                   if lam - unc > 0 else "uncertain")
-        assert r["verdict"] == expect
+        assert r["verdict_main"] == expect
+        # the check: the same state at rtol_check over check_span x the span
+        lc, uc = r["lambda_check"], r["lambda_check_unc"]
+        expect_c = ("regular" if lc + uc < 0 else
+                    ("chaotic" if r["section_points"] >= study.MIN_SECTION_POINTS else "λ1 > 0, short")
+                    if lc - uc > 0 else "uncertain")
+        assert r["verdict_check"] == expect_c
+        assert r["verdict"] == (expect if expect == expect_c else "not established")
     # a short section is never called chaotic
     assert not ((summary["section_points"] < study.MIN_SECTION_POINTS) & (summary["verdict"] == "chaotic")).any()
+
+
+def test_sweep_verdicts_checked_at_the_tighter_tolerance(quick_run):
+    """Every sweep point not called regular is run again (rtol_check, check_span x the span); its
+    verdict holds only where the two agree."""
+    study, out, _ = quick_run
+    sweeps, prov = load_table(out / "rhee1996_sweeps.parquet")
+    period = 2 * np.pi / prov["scene_parameters"]["driver"]["speed"]
+    for name, c in (("clearance", None), ("friction", 0.25e-3)):
+        pts = study.sweep_points(sweeps[sweeps["case"] == name], period, clearance=c)
+        stored = prov["sweep_points"][name]
+        assert [p["verdict_main"] for p in stored] == list(pts["verdict_main"])
+        chk = sweeps[sweeps["case"] == f"{name}_check"]
+        checked = sorted(chk["value"].astype(float).unique()) if len(chk) else []
+        assert checked == sorted(float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != "regular")
+        for p in stored:
+            if p["verdict_check"]:
+                assert p["verdict"] == (p["verdict_main"] if p["verdict_main"] == p["verdict_check"]
+                                        else ("failed" if "failed" in (p["verdict_main"], p["verdict_check"])
+                                              else "not established"))
+            else:
+                assert p["verdict_main"] == "regular" and p["verdict"] == "regular"
 
 
 def test_eccentricity_over_clearance_saved(quick_run):

@@ -90,6 +90,12 @@ def test_shared_helpers(monkeypatch):
     assert verdict(0.1, 0.5, 80, 50) == "uncertain"
     assert verdict(float("nan"), 0.5, 80, 50) == "failed"
     assert verdict(2.0, 0.5, 80, 50, failed=True) == "failed"
+    from nld.study import NOT_ESTABLISHED, checked_verdict
+    assert checked_verdict("chaotic", "chaotic") == "chaotic"
+    assert checked_verdict("regular", None) == "regular"           # not checked
+    assert checked_verdict("chaotic", "regular") == NOT_ESTABLISHED  # rhee1996 c = 0.05 mm
+    assert checked_verdict("chaotic", "uncertain") == NOT_ESTABLISHED
+    assert checked_verdict("regular", "failed") == "failed"
     runs = {"a": {"success": 1, "stats": {"accepted": 10}, "contact_events": 3, "wall_s": 1.234}}
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
     assert timing("1.0 s") == "1.0 s"
