@@ -2,14 +2,16 @@
 ``event_samples`` interior points of each step's dense output, so sign changes that the step's
 ends do not show are located, in order, each once; ``event_samples = 0`` is the ends-only test.
 
-The integrators are called through one module-level ``@njit(cache=True)`` wrapper with global
-functions (loaded from numba's disk cache, see nld/integrators/dopri5.py)."""
+The integrators are called through the module-level ``@njit(cache=True)`` wrapper of
+tests/problems.py with global functions (loaded from numba's disk cache, see
+nld/integrators/dopri5.py; test_integrators compiles the same one)."""
 import numpy as np
 import pytest
 from numba import njit
 
 from nld.errors import InputError
-from nld.integrators import EVENT_SAMPLES, dop853, dopri5, rodas
+from nld.integrators import EVENT_SAMPLES, dopri5
+from problems import UNIT, adaptive
 
 METHODS = {0: "dopri5", 1: "dop853", 2: "rodas"}
 
@@ -32,25 +34,13 @@ def count_on_event(k, direction, t, y, p, z):
     return 0
 
 
-@njit(cache=True)
-def solve(which, p, event_samples, h):
-    """y' = 1 from y(0) = 0 to t = 1 in steps of at most h (exact: the dense output is y = t)."""
-    y0 = np.zeros(1)
-    t_eval = np.array([1.0])
-    z = np.zeros(2)
-    atol = np.array([1e-6])
-    if which == 0:
-        return dopri5(unit_rhs, cubic_events, count_on_event, 0.0, y0, t_eval, True, p, z, 1e-6,
-                      atol, h, h, 1000, 2, 16, event_samples)
-    if which == 1:
-        return dop853(unit_rhs, cubic_events, count_on_event, 0.0, y0, t_eval, True, p, z, 1e-6,
-                      atol, h, h, 1000, 2, 16, event_samples)
-    return rodas(unit_rhs, cubic_events, count_on_event, 0.0, y0, t_eval, True, p, z, 1e-6,
-                 atol, h, h, 1000, 2, 16, event_samples)
-
-
 def _events(which, roots, m, h=0.1):
-    out = solve(which, np.array(roots, dtype=float), m, h)
+    """y' = 1 from y(0) = 0 to t = 1 in steps of at most h (exact: the dense output is y = t), with
+    the events of problems.problem_events (g0 roots roots[0:3], g1 roots[3:5]); the shared wrapper
+    of tests/problems.py, so the integrators compile once for the whole test run."""
+    p = np.array([UNIT, *roots], dtype=float)
+    out = adaptive(which, 0.0, np.zeros(1), np.array([1.0]), True, p, np.zeros(2), 1e-6,
+                   np.array([1e-6]), h, h, 1000, 2, 16, m)
     assert out[0] == 0
     n = int(out[8])
     return out[5][:n], out[6][:n], out[7][:n]

@@ -2,19 +2,19 @@
 the scipy backend, and simulate(method=...).
 
 Every integrator call on a test problem goes through a module-level ``@njit(cache=True)`` wrapper
-(``adaptive``, ``fixed``) whose rhs/events are globals, so numba's disk cache holds it (a
-dispatcher passed from Python is never found in the cache; see nld/integrators/dopri5.py).
+of tests/problems.py (``adaptive``, ``fixed``) whose rhs/events are globals, so numba's disk cache
+holds it (a dispatcher passed from Python is never found in the cache; see
+nld/integrators/dopri5.py); test_events and test_tangent use the same wrappers.
 """
 import importlib
 import math
 
 import numpy as np
 import pytest
-from numba import njit
 
 from nld.errors import InputError
-from nld.integrators import (METHODS, NON_FINITE, SINGULAR, STIFF, STOPPED, SUCCESS, dop853,
-                             dop853_fixed, dopri5, method_status_message, rodas, rodas_fixed)
+from nld.integrators import (METHODS, NON_FINITE, SINGULAR, STIFF, STOPPED, SUCCESS,
+                             method_status_message)
 from nld.integrators import rosenbrock as rosmod
 
 # the package attribute ``dop853`` is the function; the module is in sys.modules
@@ -22,78 +22,9 @@ d853mod = importlib.import_module("nld.integrators.dop853")
 from nld.run.simulate import simulate
 
 # ------------------------------------------------------------------ test problems
-# One right-hand side for all test problems, chosen by p[0], and one wrapper per integrator call
-# kind: every integrator is compiled once for the test problems (a cold test run used to compile
-# 16 specializations, about 2.5 min of the suite's numba compilation).
-PEND, VDP, NAN, BANG, LIN, OFFSET = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0
-
-
-@njit(cache=True)
-def problem_rhs(t, y, p, z, dy):
-    """The test problem p[0], with its parameters in p[1:]:
-
-    PEND    forced pendulum x'' = -sin x + 0.3 cos t: nonlinear and non-autonomous (tests df/dt);
-    VDP     Van der Pol x'' = mu (1 - x^2) x' - x, mu = p[1];
-    NAN     y' = 1, NaN from t = p[1] on;
-    BANG    x'' = -a z0, a = p[1], z0 = +-1 switched by problem_on_event (a bang-bang
-            oscillator; period 4 sqrt(2/a));
-    LIN     y' = lam y, lam = p[1];
-    OFFSET  x'' = -(x - X0), X0 = p[1]: x = X0 + cos t, a small motion on a large value (like a
-            winding angle).
-    """
-    kind = p[0]
-    if kind == PEND:
-        dy[0] = y[1]
-        dy[1] = -math.sin(y[0]) + 0.3 * math.cos(t)
-    elif kind == VDP:
-        dy[0] = y[1]
-        dy[1] = p[1] * (1.0 - y[0] * y[0]) * y[1] - y[0]
-    elif kind == NAN:
-        dy[0] = np.nan if t >= p[1] else 1.0
-    elif kind == BANG:
-        dy[0] = y[1]
-        dy[1] = -p[1] * z[0]
-    elif kind == LIN:
-        dy[0] = p[1] * y[0]
-    else:
-        dy[0] = y[1]
-        dy[1] = -(y[0] - p[1])
-
-
-@njit(cache=True)
-def problem_events(t, y, p, z, g):
-    """BANG's event x = 0 (only called with n_events = 1)."""
-    g[0] = y[0]
-
-
-@njit(cache=True)
-def problem_on_event(k, direction, t, y, p, z):
-    """BANG: z0 takes the crossing direction, z1 counts crossings; stop if p[2] != 0."""
-    z[0] = direction
-    z[1] += 1.0
-    return int(p[2])
-
-
-@njit(cache=True)
-def adaptive(which, y0, t_eval, land, p, z, rtol, atol, max_steps, n_events, max_log):
-    """which = 0 dopri5, 1 dop853, 2 rodas on problem p[0]."""
-    if which == 0:
-        return dopri5(problem_rhs, problem_events, problem_on_event, 0.0, y0, t_eval, land, p, z,
-                      rtol, atol, 0.0, 0.0, max_steps, n_events, max_log)
-    if which == 1:
-        return dop853(problem_rhs, problem_events, problem_on_event, 0.0, y0, t_eval, land, p, z,
-                      rtol, atol, 0.0, 0.0, max_steps, n_events, max_log)
-    return rodas(problem_rhs, problem_events, problem_on_event, 0.0, y0, t_eval, land, p, z,
-                 rtol, atol, 0.0, 0.0, max_steps, n_events, max_log)
-
-
-@njit(cache=True)
-def fixed(which, y0, h, n, p):
-    """n fixed steps of size h: which = 0 dop853, 1 rodas."""
-    z = np.zeros(1)
-    if which == 0:
-        return dop853_fixed(problem_rhs, 0.0, y0, h, n, p, z)
-    return rodas_fixed(problem_rhs, 0.0, y0, h, n, p, z, np.ones(y0.shape[0]))
+# shared with test_events and test_tangent (tests/problems.py): every integrator compiles once
+from problems import (BANG, LIN, NAN, OFFSET, PEND, VDP, adaptive, fixed)  # noqa: E402
+from nld.integrators import EVENT_SAMPLES  # noqa: E402
 
 
 def lin_fixed(lam, h, n):
@@ -105,25 +36,25 @@ def pend_fixed(which, h, n):
 
 
 def pend_adaptive(which, t_eval, rtol, atol):
-    return adaptive(which, np.array([1.0, 0.0]), t_eval, False, np.array([PEND]), np.zeros(1),
-                    rtol, atol, 10**6, 0, 8)
+    return adaptive(which, 0.0, np.array([1.0, 0.0]), t_eval, False, np.array([PEND]), np.zeros(1),
+                    rtol, atol, 0.0, 0.0, 10**6, 0, 8, EVENT_SAMPLES)
 
 
 def vdp_solve(which, t_eval, mu, rtol, max_steps):
-    return adaptive(which, np.array([2.0, 0.0]), t_eval, False, np.array([VDP, mu]), np.zeros(1),
-                    rtol, np.full(2, rtol), max_steps, 0, 8)
+    return adaptive(which, 0.0, np.array([2.0, 0.0]), t_eval, False, np.array([VDP, mu]), np.zeros(1),
+                    rtol, np.full(2, rtol), 0.0, 0.0, max_steps, 0, 8, EVENT_SAMPLES)
 
 
 def nan_solve(which, t_eval):
-    return adaptive(which, np.zeros(1), t_eval, False, np.array([NAN, 0.5]), np.zeros(1), 1e-8,
-                    np.full(1, 1e-10), 10**5, 0, 8)
+    return adaptive(which, 0.0, np.zeros(1), t_eval, False, np.array([NAN, 0.5]), np.zeros(1), 1e-8,
+                    np.full(1, 1e-10), 0.0, 0.0, 10**5, 0, 8, EVENT_SAMPLES)
 
 
 def bang_solve(which, t_eval, stop, land, rtol):
     z = np.array([1.0, 0.0])
-    out = adaptive(which, np.array([1.0, 0.0]), t_eval, land,
-                   np.array([BANG, 9.81, 1.0 if stop else 0.0]), z, rtol, np.full(2, 1e-12), 10**5,
-                   1, 64)
+    out = adaptive(which, 0.0, np.array([1.0, 0.0]), t_eval, land,
+                   np.array([BANG, 9.81, 1.0 if stop else 0.0]), z, rtol, np.full(2, 1e-12), 0.0, 0.0,
+                   10**5, 1, 64, EVENT_SAMPLES)
     return out, z
 
 
@@ -339,19 +270,27 @@ def test_generated_kernel_has_the_wrappers():
     assert all(hasattr(k.module, f) for f in ("solve", "solve_dop853", "solve_rodas"))
 
 
+STIFF_CONTACT = ["driver.speed=15.0", 'joints.B.contact.law="hertz_damped"', "joints.B.contact.damping=2e6",
+                 "joints.B.contact.stiffness=1e10"]
+
+
 def test_rodas_on_stiff_damped_contact():
     """Heavily damped persistent contact (hertz_damped, C = 2e6 N s/m): Rodas4 takes ~2000 steps
-    for half a revolution where dopri5 takes ~10^6; the result agrees with a tighter Rodas run,
-    and DOP853 stops with the stiffness message instead of returning a wrong answer."""
-    ov = ["driver.speed=15.0", 'joints.B.contact.law="hertz_damped"', "joints.B.contact.damping=2e6",
-          "joints.B.contact.stiffness=1e10"]
-    r = simulate("slider_crank", revs=0.5, rtol=1e-6, method="rodas", overrides=ov)
+    for half a revolution where dopri5 takes ~10^6; the result agrees with a tighter Rodas run."""
+    r = simulate("slider_crank", revs=0.5, rtol=1e-6, method="rodas", overrides=STIFF_CONTACT)
     assert r.status == 0, r.message
     assert r.stats["steps"] < 5000
-    ref = simulate("slider_crank", revs=0.5, rtol=1e-8, method="rodas", overrides=ov)
+    ref = simulate("slider_crank", revs=0.5, rtol=1e-8, method="rodas", overrides=STIFF_CONTACT)
     err = np.abs(r.table[["B.ex", "B.ey"]].to_numpy() - ref.table[["B.ex", "B.ey"]].to_numpy()).max()
     assert err < 1e-5, err
-    d = simulate("slider_crank", revs=0.5, rtol=1e-6, method="dop853", overrides=ov)
+
+
+@pytest.mark.slow
+def test_dop853_stops_on_stiff_damped_contact():
+    """The same scene: DOP853 stops with the stiffness message instead of returning a wrong
+    answer. Slow only for the compilation (DOP853 for this kernel, ~25 s cold); the stiffness
+    detection itself stays in the default run (test_dop853_detects_stiffness, Van der Pol)."""
+    d = simulate("slider_crank", revs=0.5, rtol=1e-6, method="dop853", overrides=STIFF_CONTACT)
     assert d.status == STIFF and "rodas" in d.message
 
 
@@ -371,8 +310,8 @@ def test_scipy_backend_updates_discrete_state_and_logs_events(slider_ref):
 # ------------------------------------------------------------------ per-state rtol weights
 def offset_solve(which, t_eval, atol):
     """x = 1e4 + cos t (problem OFFSET) at rtol 1e-6 with the tolerance vector atol."""
-    return adaptive(which, np.array([1.0e4 + 1.0, 0.0]), t_eval, False, np.array([OFFSET, 1.0e4]),
-                    np.zeros(0), 1e-6, atol, 10**6, 0, 8)
+    return adaptive(which, 0.0, np.array([1.0e4 + 1.0, 0.0]), t_eval, False, np.array([OFFSET, 1.0e4]),
+                    np.zeros(0), 1e-6, atol, 0.0, 0.0, 10**6, 0, 8, EVENT_SAMPLES)
 
 
 @pytest.mark.parametrize("which", [0, 1, 2])

@@ -242,17 +242,6 @@ def test_tangent_exponent_independent_of_tolerance_full(scene, overrides):
 
 
 # ---------------------------------------------------------------- several sign changes in a step
-@njit(cache=True)
-def _unit_rhs(t, y, p, z, dy):
-    dy[0] = 1.0
-
-
-@njit(cache=True)
-def _cubic_events(t, y, p, z, g):
-    g[0] = (y[0] - p[0]) * (y[0] - p[1]) * (y[0] - p[2])
-    g[1] = (y[0] - p[3]) * (y[0] - p[4])
-
-
 def test_event_location_finds_every_sign_change_in_a_step():
     """y = t in DOPRI5 steps of 0.1 (exact for y' = 1). g0 has three roots in the step
     [0.3, 0.4] (ends - and +: one crossing seen from the ends, and regula falsi would find the
@@ -260,9 +249,12 @@ def test_event_location_finds_every_sign_change_in_a_step():
     from the ends). All five are located, in order, each once (three interior samples per step,
     the first sub-interval with a sign change refined 16 times; docs/lyapunov.md)."""
     roots0, roots1 = (0.305, 0.34, 0.375), (0.62, 0.66)
-    S = ContinuousSystem(_unit_rhs, [0.0], list(roots0) + list(roots1), "unit",
-                         events=_cubic_events, n_events=2, hmax=0.1)
-    out = S.solve(0.0, np.array([0.0]), np.array([1.0]), True, S.p, np.zeros(0), 1e-6,
+    from problems import UNIT, dopri5_solve, problem_events, problem_on_event, problem_rhs
+    # the shared, disk-cached test wrapper (tests/problems.py) as the system's solve=
+    S = ContinuousSystem(problem_rhs, [0.0], [UNIT] + list(roots0) + list(roots1), "unit",
+                         events=problem_events, on_event=problem_on_event, n_events=2, hmax=0.1,
+                         z0=[0.0, 0.0], solve=dopri5_solve)
+    out = S.solve(0.0, np.array([0.0]), np.array([1.0]), True, S.p, S.z0.copy(), 1e-6,
                   np.array([1e-6]), 0.1, 0.1, 1000, 2, 16)
     n_ev = out[8]
     ev_t, ev_k = out[5][:n_ev], out[6][:n_ev]
