@@ -92,7 +92,9 @@ def check_text(st) -> str:
             f"case's exponent is computed again from the same state at rtol {st['rtol_check']:g} over "
             f"{st['check_span']}x the span, and every sweep point not called regular is run again from "
             f"the assembly at rtol {st['rtol_check']:g} with {st['check_span']}x the averaging span; "
-            "where the two verdicts differ the point is 'not established' (nld.study.checked_verdict).")
+            "where the two verdicts differ the point is 'not established' (nld.study.checked_verdict). "
+            "A case's verdict must also agree with that of the sweep point of the same parameters (run "
+            "from the assembly: another history of the same system).")
 
 
 def estimator_line(settings: dict, period: float | None) -> str:
@@ -219,6 +221,22 @@ def sweep_points(df: pd.DataFrame, period: float, clearance=None) -> pd.DataFram
                          "verdict_main": [verdict(a, b, n) for a, b, n in zip(lam, unc, npts)],
                          "period": np.array(periods, dtype=int),
                          "status": first["status"].to_numpy()})
+
+
+def add_sweep_verdicts(res, pts_c, pts_f):
+    """Each case's verdict against the sweep point of the same parameters (a run from the assembly:
+    another history of the same system): verdict_sweep (blank where no sweep point matches) and the
+    final verdict, which holds only if that point's checked verdict agrees too. At c = 0.05 mm the
+    case (from the end of its section) and the sweep point (from the assembly) fell on different
+    motions: an intermittent regime, whose verdict depends on which stretch is averaged."""
+    from nld.study import checked_verdict
+    for name, (group, _, c, mu) in CASES.items():
+        pts, v = (pts_c, c) if group == "clearance" else (pts_f, mu)
+        hit = pts[np.isclose(pts["value"].astype(float), v, rtol=1e-9, atol=1e-15)]
+        row = res[name]["row"]
+        row["verdict_sweep"] = str(hit["verdict"].iloc[0]) if len(hit) else ""
+        if len(hit):
+            row["verdict"] = checked_verdict(row["verdict"], row["verdict_sweep"])
 
 
 def sweep_checks(st, pts_c, pts_f, clearance):
@@ -594,6 +612,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     pts_c = add_sweep_checks(pts_c, chk["clearance"], period)
     pts_f = add_sweep_checks(pts_f, chk["friction"], period, clearance=c_f)
     sweeps.update({f"{k}_check": v for k, v in chk.items() if v is not None})
+    add_sweep_verdicts(res, pts_c, pts_f)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
     wall = study.elapsed()
     study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
@@ -630,6 +649,7 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
     shown = shown.rename(columns={"clearance_mm": "c", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
                                   "verdict_main": "verdict 1", "lambda_check": "λ1 check",
                                   "lambda_check_unc": "± check", "verdict_check": "verdict 2",
+                                  "verdict_sweep": "sweep",
                                   "section_period": "period", "section_points": "points",
                                   "contact_fraction": "in contact",
                                   "peak_orders": "peak orders", "wall_s": "wall"})
@@ -653,8 +673,10 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
                          "lambda_unc_per_rev in the CSV); verdict 1 'chaotic' if λ1 - unc > 0 and the section "
                          f"has at least {MIN_SECTION_POINTS} points ('λ1 > 0, short' below that), 'regular' if "
                          f"λ1 + unc < 0. λ1: {prov['case_estimator'][next(iter(CASES))]}. λ1 check, verdict 2: "
-                         f"{prov['case_check_estimator'][next(iter(CASES))]}, from the same state. verdict: "
-                         "verdict 1 where verdict 2 agrees, else 'not established'. points: section "
+                         f"{prov['case_check_estimator'][next(iter(CASES))]}, from the same state. sweep: the "
+                         "verdict of the sweep point with the same parameters (run from the assembly, next "
+                         "table). verdict: verdict 1 where verdict 2 and the sweep agree, else 'not "
+                         "established'. points: section "
                          "points. period: period of the "
                          "Poincaré section (points repeat to 1e-6 of the clearance; 0 = none up to 16). max_Fn, rms_Fn, in contact (fraction of samples with B.Fn > 0): over "
                          f"the sampled run stored in {STEM}.parquet (B.Fn). peak_orders: crank orders of "
