@@ -46,18 +46,19 @@ FULL = {
                          # whose two values disagree is 'uncertain' (docs/lyapunov.md: c = 0.1 mm,
                          # mu = 0.1 gave 82 per rev at 1e-10, 44 at 1e-11, an exponent of the integrator)
                          transient_revs=50, revs=100, lyapunov_revs=100, rtol=1e-10, d0=None,
-                         rtol_check=1e-11),
+                         rtol_check=1e-11, check_span=2),
     # mu = 0.1 is back in the grid: with Coulomb friction as hybrid stick/slip modes (issue 14) it costs
     # about 1.5x the steps of mu = 0 (it exceeded 5e7 steps while the sign law chattered). rtol 1e-7:
     # at 1e-6 the cell c = 0.01 mm, mu = 0.01 switches stick <-> slip at nearly every step
     # (studies/zhang2013_excavator.py)
     "excavator": dict(values_x=[1e-5, 3e-5, 1e-4, 5e-4], values_y=[0.0, 0.01, 0.02, 0.05, 0.1],
-                      transient_revs=2, revs=2, lyapunov_revs=4, rtol=1e-7, d0=None, rtol_check=1e-8),
+                      transient_revs=2, revs=2, lyapunov_revs=4, rtol=1e-7, d0=None, rtol_check=1e-8,
+                      check_span=2),
 }
 QUICK = {
     "slider_crank": dict(values_x=[0.1e-3, 0.25e-3, 0.5e-3], values_y=[0.0, 0.1, 0.2],
                          transient_revs=5, revs=30, lyapunov_revs=10, rtol=1e-7, d0=None,
-                         rtol_check=1e-8),
+                         rtol_check=1e-8, check_span=2),
     "excavator": dict(values_x=[3e-5, 3e-4], values_y=[0.0, 0.01],
                       transient_revs=0, revs=1, lyapunov_revs=2, rtol=1e-5, d0=None, rtol_check=None),
 }
@@ -95,7 +96,8 @@ def run_map(name: str, st: dict, workers: int, work: Path | None = None):
         return chaos_map(m["scene"], m["param_x"], st["values_x"], m["param_y"], st["values_y"],
                          transient_revs=st["transient_revs"], revs=st["revs"],
                          lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"],
-                         workers=workers, rtol_check=st.get("rtol_check"), out=work, resume=resume)
+                         workers=workers, rtol_check=st.get("rtol_check"),
+                         check_span=st.get("check_span", 1.0), out=work, resume=resume)
 
     if work is None:
         df = run(False)
@@ -164,8 +166,8 @@ def _fig_map(rep, name, df, st, value="lambda"):
     cap = (f"{m['label']}. Each cell: {st['transient_revs']} transient revolutions, a {st['revs']}-point "
            f"stroboscopic section, then λ1 (tangent dynamics with saltation, 2 revolutions of alignment) "
            f"over {st['lyapunov_revs']} revolutions at rtol {st['rtol']:g}" +
-           (f", checked at rtol {st['rtol_check']:g} (a cell whose two exponents disagree is hatched as "
-            "uncertain)" if st.get("rtol_check") else "") + ". "
+           (f", checked at rtol {st['rtol_check']:g} over {st.get('check_span', 1):g}x that span (a cell "
+            "whose two exponents disagree is hatched as uncertain)" if st.get("rtol_check") else "") + ". "
            "Colour and number: λ1 per crank revolution (± its uncertainty); black line: λ1 = 0, the onset "
            "boundary, interpolated between cell centres; hatched: verdict uncertain (|λ1| <= uncertainty"
            + (", or the two tolerances disagree)." if st.get("rtol_check") else ")."))
@@ -179,7 +181,8 @@ def _fig_map(rep, name, df, st, value="lambda"):
 def _check_text(st) -> str:
     if not st.get("rtol_check"):
         return ", no tolerance check"
-    return (f"; every exponent is computed again from the same state at rtol {st['rtol_check']:g} and the "
+    return (f"; every exponent is computed again from the same state at rtol {st['rtol_check']:g} over "
+            f"{st.get('check_span', 1):g}x the averaging span and the "
             "cell is 'uncertain' unless both agree in verdict and to 3 x their combined uncertainty "
             "(an explicit integrator on a stiff contact state can return a steady, large, "
             "tolerance-dependent exponent of its own: docs/lyapunov.md)")

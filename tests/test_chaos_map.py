@@ -89,6 +89,25 @@ def test_tolerance_check_on_the_former_integrator_exponent_cell(mu):
     assert checked.attrs["provenance"]["rtol_check"] == 1e-9
 
 
+def test_the_check_averages_over_check_span_times_the_span():
+    """check_span = 2: the check's exponent is the tangent estimate over twice the span from the
+    same state (the main exponent is unchanged); a check_span below 1 is refused."""
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.analysis.poincare import stroboscopic
+    from nld.systems.core import SceneSystem
+    df = chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, rtol_check=1e-9, check_span=2, **KW)
+    row = df.iloc[0]
+    ov = [f"{PX}=5e-4", f"{PY}=0.1"]
+    sec = stroboscopic(SCENE, transient_revs=2, revs=4, observables=["B.ex"], rtol=1e-8, overrides=ov)
+    s = SceneSystem(SCENE, ov)
+    s.y0, s.z0 = sec.y_final.copy(), sec.z_final.copy()
+    chk = lyapunov_tangent(s, transient=0.0, total=2 * 4 * s.period, rtol=1e-9)
+    assert row.per_revolution_check == chk.per_revolution
+    assert df.attrs["provenance"]["check_span"] == 2.0
+    with pytest.raises(InputError, match="check_span = 0.5"):
+        chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, rtol_check=1e-9, check_span=0.5, **KW)
+
+
 def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
     """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + the tangent estimator
     (the default) from its end."""

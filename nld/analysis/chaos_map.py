@@ -25,7 +25,9 @@ keys set together, e.g. the clearances of joints A and B) and runs:
    second opinion from the points already computed (no extra integration). It needs ``revs`` >=
    30 (else K is NaN with a note) and is rough below a few hundred points. A section that repeats
    to ``period_tol`` (period 1 by :func:`nld.analysis.poincare.period_of`) is a fixed point: K = 0;
-4. optionally (``rtol_check``) the exponent again from the same state at a second tolerance. A
+4. optionally (``rtol_check``) the exponent again from the same state at a second tolerance, over
+   ``check_span`` times the span (a chaos verdict must survive a change of tolerance and of
+   averaging time; ``check_span`` 1 keeps the span). A
    cell whose two exponents differ by more than ``CHECK_FACTOR`` x (the sum of their
    uncertainties) is "uncertain" whatever their signs: the value belongs to the integrator, not
    to the mechanism (seen with the stiff Lankarani-Nikravesh contact in permanent contact:
@@ -59,7 +61,6 @@ import math
 import os
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -78,10 +79,11 @@ SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolut
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
 # settings checked on resume besides bifurcation's (nld.analysis.bifurcation._SETTINGS), also
 # when the directory holds no finished cell yet
-_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check",
+_EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check", "check_span",
                    "lyapunov_integrator", "estimator")
-# what a provenance.json written before an extra setting existed stands for (dopri5, two trajectories)
-_EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin"}
+# what a provenance.json written before an extra setting existed stands for (dopri5, two
+# trajectories, a check over the same span)
+_EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin", "check_span": 1.0}
 # exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
 CHECK_FACTOR = 3.0
 
@@ -97,6 +99,7 @@ class _Job:
     seed: int
     zero_one: dict
     rtol_check: float | None = None
+    check_span: float = 1.0
     lyapunov_method: str = "dopri5"
     estimator: str = "tangent"
 
@@ -209,8 +212,9 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
                                rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
         lam, unc = float(res.exponent), float(res.uncertainty)
         per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
-        if job.rtol_check is not None:      # the same exponent at a second tolerance
-            chk = largest_exponent(system, job.estimator, total=spec.lyapunov_revs * sec.period,
+        if job.rtol_check is not None:      # the same exponent at a second tolerance and span
+            chk = largest_exponent(system, job.estimator,
+                                   total=job.check_span * spec.lyapunov_revs * sec.period,
                                    rtol=job.rtol_check, d0=job.d0, seed=job.seed)
             lam_c, unc_c = float(chk.exponent), float(chk.uncertainty)
             per_rev_c = float(chk.per_revolution)
@@ -285,7 +289,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
               d0: float | None = None, seed: int = 0, observable: str | None = None,
               zero_one: dict | None = None, period_tol: float = 1e-6,
               max_steps: int = LYAPUNOV.max_steps, batch_size: int | None = None,
-              progress=None, rtol_check: float | None = None,
+              progress=None, rtol_check: float | None = None, check_span: float = 1.0,
               lyapunov_method: str = "dopri5", estimator: str = "tangent",
               on_point=None) -> pd.DataFrame:
     """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
@@ -303,8 +307,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     or "benettin" (:func:`nld.analysis.lyapunov.lyapunov_benettin` with separation d0, default 1e-4 in
     the scaled norm; d0 is refused with the tangent estimator).
     rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
-    from the same state; the cell is "uncertain" unless both agree (module docstring, step 4).
-    It doubles the exponent's cost.
+    from the same state, averaged over ``check_span`` (default 1, >= 1) times the span; the cell
+    is "uncertain" unless both agree (module docstring, step 4). It costs about check_span x
+    (rtol / rtol_check)^(1/5) times the exponent (DOPRI5's steps), twice or more.
     lyapunov_method: the integrator of the exponent (and of its check): "dopri5" (default; the
     only one of the tangent estimator); with estimator="benettin" also "dop853" (stops with a message where its stiffness detection fires) or
     "rodas" (Rodas4, experimental: tried on cells whose journal stays in stiff damped contact, it
@@ -363,6 +368,10 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     if rtol_check is not None and not (isinstance(rtol_check, (int, float))
                                        and 1e-14 <= rtol_check < 1):
         raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
+    if not (isinstance(check_span, (int, float)) and not isinstance(check_span, bool)
+            and 1.0 <= check_span <= 100.0):
+        raise InputError(f"check_span = {check_span!r}: must be a number in [1, 100] (the check's "
+                         "averaging span over the exponent's)")
     spec = _bif._Spec(raw=raw, source=sc.source, param=keys_x[0], transient_revs=transient_revs,
                       revs=revs, observables=[observable] if observable else None,
                       rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
@@ -374,14 +383,15 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
                d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
                rtol_check=None if rtol_check is None else float(rtol_check),
-               lyapunov_method=lyapunov_method, estimator=estimator)
+               check_span=float(check_span), lyapunov_method=lyapunov_method, estimator=estimator)
     settings = dict(scene=sc.name, scene_parameters=raw, param=[keys_x, keys_y], values=[vx, vy],
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
                     rtol=spec.rtol, continuation=False, up_down=False, max_steps=spec.max_steps,
                     period_tol=spec.period_tol, n_max=spec.n_max, lyapunov=True,
                     lyapunov_revs=spec.lyapunov_revs, lyapunov_rtol=spec.lyapunov_rtol,
                     d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one,
-                    rtol_check=job.rtol_check, lyapunov_integrator=lyapunov_method,
+                    rtol_check=job.rtol_check, check_span=job.check_span,
+                    lyapunov_integrator=lyapunov_method,
                     estimator=estimator, lyapunov_estimator=estimator)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
                 integrator=f"dopri5 (sections), {lyapunov_method} (exponents)",

@@ -45,6 +45,9 @@ def add_parser(sub):
     sp.add_argument("--rtol-check", type=rtol_arg, default=None, metavar="R",
                     help="recompute each exponent at this second tolerance; cells where the two "
                          "disagree are 'uncertain' (default: no check)")
+    sp.add_argument("--check-span", type=float, default=1.0, metavar="F",
+                    help="with --rtol-check: average the check over F times the exponent's span "
+                         "(default 1; 2 checks a change of averaging time too)")
     sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
                     help="estimator of the exponent: tangent dynamics with saltation (default) "
                          "or two trajectories (benettin)")
@@ -107,7 +110,8 @@ def cmd_chaos_map(args) -> int:
                    ky if len(ky) > 1 else ky[0], args.y_values,
                    transient_revs=args.transient_revs, revs=args.revs,
                    lyapunov_revs=args.lyapunov_revs, rtol=args.rtol,
-                   lyapunov_rtol=args.lyapunov_rtol, rtol_check=args.rtol_check, d0=args.d0,
+                   lyapunov_rtol=args.lyapunov_rtol, rtol_check=args.rtol_check,
+                   check_span=args.check_span, d0=args.d0,
                    lyapunov_method=args.lyapunov_method, estimator=args.estimator,
                    seed=args.seed,
                    observable=args.observable, workers=args.workers, dask=args.dask,
