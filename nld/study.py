@@ -47,7 +47,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 __all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict",
-           "checked_verdict", "NOT_SHOWN", "SHORT", "NOT_ESTABLISHED"]
+           "checked_verdict", "merge_checks", "NOT_SHOWN", "SHORT", "NOT_ESTABLISHED"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
 SHORT = "λ1 > 0, short"
@@ -114,6 +114,31 @@ def checked_verdict(main: str, check: str | None) -> str:
     if "failed" in (main, check):
         return "failed"
     return NOT_ESTABLISHED
+
+
+def merge_checks(pts, checked=None):
+    """``pts`` (one row per sweep point: ``value``, ``verdict_main``) with the check's columns
+    ``lambda_check``, ``lambda_check_unc``, ``verdict_check`` (blank where the point was not run
+    again) and the final ``verdict`` (:func:`checked_verdict`). checked: the same kind of table for
+    the points run again (``value``, ``lambda_per_rev``, ``lambda_unc_per_rev``, ``verdict_main``,
+    ``status``), or None."""
+    import numpy as np
+    out = pts.copy()
+    lam = np.full(len(out), np.nan)
+    unc = np.full(len(out), np.nan)
+    ver = [""] * len(out)
+    if checked is not None and len(checked):
+        by_value = {float(r["value"]): r for _, r in checked.iterrows()}
+        for i, v in enumerate(out["value"].astype(float)):
+            r = by_value.get(v)
+            if r is not None:
+                lam[i], unc[i] = r["lambda_per_rev"], r["lambda_unc_per_rev"]
+                ver[i] = r["verdict_main"] if r["status"] == "ok" else "failed"
+    out["lambda_check"] = lam
+    out["lambda_check_unc"] = unc
+    out["verdict_check"] = ver
+    out["verdict"] = [checked_verdict(m, c or None) for m, c in zip(out["verdict_main"], ver)]
+    return out
 
 
 def work_dir(out_dir, stem: str, mode: str, name: str) -> Path:

@@ -56,11 +56,13 @@ FULL = dict(rtol=1e-8, transient_revs=100, revs=64, lyap_revs=64, lyap_rtol=1e-1
             clearances=list(np.geomspace(0.02e-3, 0.5e-3, 29)),
             frictions=[0.0, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3],
             speeds_low_mu=list(np.arange(500.0, 6001.0, 250.0) / RPM),
-            case_transient=100, case_revs=300, case_lyap_revs=200, case_lyap_rtol=1e-10, workers=2)
+            case_transient=100, case_revs=300, case_lyap_revs=200, case_lyap_rtol=1e-10,
+            check_rtol_factor=0.1, check_span=2, workers=2)
 QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-10,
              speeds=[1500.0 / RPM, 3000.0 / RPM, SPEED0], clearances=[0.05e-3, 0.5e-3],
              frictions=[0.0, 0.1], speeds_low_mu=[1500.0 / RPM, SPEED0],
-             case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10, workers=1)
+             case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10,
+             check_rtol_factor=0.1, check_span=2, workers=1)
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
@@ -109,7 +111,8 @@ SHORT = "λ1 > 0, short"
 EC_LIM = 1.15
 
 
-VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5"}
+VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5",
+                  "not established": "tab:olive"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
@@ -121,8 +124,8 @@ def _verdict(lam, unc, n_points):
 
 
 def _clearance(name: str, value: float) -> float:
-    """The clearance (m) of a point of sweep ``name``."""
-    return float(value) if name == "clearance" else C0
+    """The clearance (m) of a point of sweep ``name`` (or of its check, ``NAME_check``)."""
+    return float(value) if name.removesuffix("_check") == "clearance" else C0
 
 
 def with_ec(df: pd.DataFrame, c) -> pd.DataFrame:
@@ -191,10 +194,33 @@ def sweep_points(name: str, df: pd.DataFrame) -> pd.DataFrame:
                          "value": v, "period_s": period, "lambda_1_s": lam, "lambda_unc_1_s": unc,
                          "lambda_per_rev": per, "lambda_unc_per_rev": uper,
                          "section_points": np.array(npts, dtype=int),
-                         "verdict": [_verdict(a, b, n) for a, b, n in zip(per, uper, npts)],
+                         "verdict_main": [_verdict(a, b, n) for a, b, n in zip(per, uper, npts)],
                          "section_period": first["period"].to_numpy(int),
                          "period_c": np.array(pc, dtype=int),
                          "status": first["status"].to_numpy()})
+
+
+def check_points(st: dict, points: dict, sweeps: dict):
+    """The verdict check: every sweep point not called regular is run again from the assembly with
+    both tolerances (section and exponent) times check_rtol_factor and the exponent averaged over
+    check_span x the span; its verdict holds only if both runs agree (nld.study.merge_checks).
+    Adds the check sweeps to ``sweeps`` (as NAME_check); returns {name: points with the check}."""
+    from nld.analysis.bifurcation import sweep
+    from nld.study import merge_checks
+    f = st["check_rtol_factor"]
+    out = {}
+    for name, pts in points.items():
+        vals = [float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != "regular"]
+        chk = None
+        if vals:
+            sweeps[f"{name}_check"] = sweep(
+                SCENE, SWEEPS[name][0], vals, overrides=BASE.get(name),
+                transient_revs=st["transient_revs"], revs=st["revs"], observables=OBS,
+                rtol=st["rtol"] * f, lyapunov=True, lyapunov_revs=st["check_span"] * st["lyap_revs"],
+                lyapunov_rtol=st["lyap_rtol"] * f, workers=st["workers"])
+            chk = sweep_points(name, sweeps[f"{name}_check"])
+        out[name] = merge_checks(pts, chk)
+    return out
 
 
 def chaotic_windows(pts: pd.DataFrame):
@@ -760,6 +786,9 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
                            f"assumes C0 = {C0!r} m")
     sweeps, walls = run_sweeps(st)
     points = {name: sweep_points(name, df) for name, df in sweeps.items()}
+    t_ck = time.perf_counter()
+    points = check_points(st, points, sweeps)
+    walls["verdict check"] = time.perf_counter() - t_ck
     summary = summary_table(points)
     states = showcase_states(points, st, walls)
     t_tc = time.perf_counter()
@@ -873,7 +902,11 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
                                       "chaotic_windows": "windows", "lambda_zero_crossings": "λ1 = 0 crossings",
                                       "positive_short": "λ1 > 0 short"})
         rep.table("Summary of the sweeps", shown, col_units={"max λ1": "1/rev", "min λ1": "1/rev"},
-                  notes=["Per sweep: points by verdict (chaotic: λ1 − uncertainty > 0 over a section of at least "
+                  notes=["Verdicts are checked: every point not called regular is run again from the assembly "
+                         f"at {st['check_rtol_factor']:g}x both tolerances with λ1 over {st['check_span']}x the "
+                         "span, and keeps its verdict only if the two agree ('not established' otherwise; "
+                         "columns verdict_main, lambda_check, verdict_check of the points file). "
+                         "Per sweep: points by verdict (chaotic: λ1 − uncertainty > 0 over a section of at least "
                          f"{MIN_SECTION_POINTS} points; λ1 > 0 short: λ1 − uncertainty > 0 over fewer, not called "
                          "chaotic; regular: λ1 + uncertainty < 0, else uncertain), sections detected periodic (n ≤ 16), the largest and smallest "
                          "λ1 per revolution and where, the smallest and largest chaotic value, the number of "

@@ -258,24 +258,9 @@ def sweep_checks(st, pts_c, pts_f, clearance):
 
 def add_sweep_checks(pts, chk, period, clearance=None):
     """pts with lambda_check, lambda_check_unc, verdict_check (empty where not checked) and the
-    final verdict (nld.study.checked_verdict)."""
-    from nld.study import checked_verdict
-    pts = pts.copy()
-    lam_c = np.full(len(pts), np.nan)
-    unc_c = np.full(len(pts), np.nan)
-    v_c = [""] * len(pts)
-    if chk is not None:
-        cp = sweep_points(chk, period, clearance).set_index("value")
-        for i, v in enumerate(pts["value"].astype(float)):
-            if v in cp.index:
-                lam_c[i] = cp.loc[v, "lambda_per_rev"]
-                unc_c[i] = cp.loc[v, "lambda_unc_per_rev"]
-                v_c[i] = cp.loc[v, "verdict_main"] if cp.loc[v, "status"] == "ok" else "failed"
-    pts["lambda_check"] = lam_c
-    pts["lambda_check_unc"] = unc_c
-    pts["verdict_check"] = v_c
-    pts["verdict"] = [checked_verdict(m, c or None) for m, c in zip(pts["verdict_main"], v_c)]
-    return pts
+    final verdict (nld.study.merge_checks)."""
+    from nld.study import merge_checks
+    return merge_checks(pts, None if chk is None else sweep_points(chk, period, clearance))
 
 
 def with_ec(df: pd.DataFrame, clearance=None) -> pd.DataFrame:

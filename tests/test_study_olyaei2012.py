@@ -47,7 +47,8 @@ def test_sweeps_stored_with_provenance(quick_run):
     df, prov = load_table(out / "olyaei2012.parquet")
     assert prov["mode"] == "quick" and prov["scene"] == "slider_crank_olyaei"
     assert prov["rtol"] == study.QUICK["rtol"] and "git_hash" in prov
-    assert set(df["case"]) == set(study.SWEEPS)
+    # the sweeps and the checks of their points not called regular (NAME_check)
+    assert set(study.SWEEPS) <= set(df["case"]) <= set(study.SWEEPS) | {f"{n}_check" for n in study.SWEEPS}
     for name, key in study.SETTINGS_KEY.items():
         part = df[df["case"] == name]
         assert np.allclose(sorted(part["value"].astype(float).unique()), sorted(study.QUICK[key]))
@@ -68,11 +69,17 @@ def test_points_and_summary_follow_from_the_sweeps(quick_run):
         speed = g["value"].to_numpy() if study.SWEEPS[name][0] == "driver.speed" else np.full(len(g), study.SPEED0)
         lam = part.loc[g["index"], "lyapunov"].to_numpy(float)
         assert np.allclose(g["lambda_per_rev"], lam * 2 * np.pi / speed, rtol=1e-12)
-        for lam_r, unc, n, verdict in zip(g["lambda_per_rev"], g["lambda_unc_per_rev"], g["section_points"],
-                                          g["verdict"]):
+        for lam_r, unc, n, verdict, vc, final in zip(g["lambda_per_rev"], g["lambda_unc_per_rev"],
+                                                    g["section_points"], g["verdict_main"],
+                                                    g["verdict_check"], g["verdict"]):
             # chaotic only over a section of at least the stated minimum of points
             assert verdict == (("chaotic" if n >= study.MIN_SECTION_POINTS else "λ1 > 0, short") if lam_r - unc > 0
                                else "regular" if lam_r + unc < 0 else "uncertain")
+            # every point not called regular was run again; the verdict holds where both agree
+            vc = vc if isinstance(vc, str) else ""
+            assert (vc == "") == (verdict == "regular")
+            assert final == (verdict if not vc or vc == verdict else
+                             "failed" if "failed" in (verdict, vc) else "not established")
         ok = g[g["status"] == "ok"]
         assert (ok["section_points"] == study.QUICK["revs"]).all()
         s = summ.loc[name]
@@ -155,7 +162,7 @@ def test_eccentricity_over_clearance_saved(quick_run):
     df, prov = load_table(out / "olyaei2012.parquet")
     assert prov["scene_parameters"]["joints"]["B"]["clearance"] == pytest.approx(study.C0, rel=1e-12)
     ok = df[df["status"] == "ok"]
-    c = np.where(ok["case"] == "clearance", ok["value"].astype(float), study.C0)
+    c = np.where(ok["case"].isin(["clearance", "clearance_check"]), ok["value"].astype(float), study.C0)
     assert np.allclose(ok["B.ex/c"], ok["B.ex"] / c, rtol=1e-12)
     assert np.allclose(ok["B.ey/c"], ok["B.ey"] / c, rtol=1e-12)
     # within the clearance plus the contact penetration (a few µm at 0.05 mm and 5000 rpm)
