@@ -63,6 +63,10 @@ QUICK = {
                       transient_revs=0, revs=1, lyapunov_revs=2, rtol=1e-5, d0=None, rtol_check=None),
 }
 MAPS = {"slider_crank": SC, "excavator": EX}
+# a cell is called chaotic only over a section of at least this many points (as the other studies:
+# a shorter section cannot tell an attractor from a transient); the excavator map's 2-point
+# sections therefore give no chaotic cell, only regular or uncertain ones
+MIN_SECTION_POINTS = 50
 MODE_LABELS = {"quick": "QUICK MODE: 3 x 3 (slider-crank) and 2 x 2 (excavator) cells, very short runs"}
 
 
@@ -97,7 +101,8 @@ def run_map(name: str, st: dict, workers: int, work: Path | None = None):
                          transient_revs=st["transient_revs"], revs=st["revs"],
                          lyapunov_revs=st["lyapunov_revs"], rtol=st["rtol"], d0=st["d0"],
                          workers=workers, rtol_check=st.get("rtol_check"),
-                         check_span=st.get("check_span", 1.0), out=work, resume=resume)
+                         check_span=st.get("check_span", 1.0), min_section_points=MIN_SECTION_POINTS,
+                         out=work, resume=resume)
 
     if work is None:
         df = run(False)

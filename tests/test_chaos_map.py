@@ -108,6 +108,21 @@ def test_the_check_averages_over_check_span_times_the_span():
         chaos_map(SCENE, PX, [5e-4], PY, [0.1], workers=1, rtol_check=1e-9, check_span=0.5, **KW)
 
 
+def test_a_positive_exponent_over_a_short_section_is_not_chaotic(reference):
+    """min_section_points = 5 with 4-point sections: the same exponents, no cell called chaotic
+    (those that were are 'uncertain', with a note saying why)."""
+    ref, _ = reference
+    df = chaos_map(SCENE, PX, VX, PY, VY, workers=1, min_section_points=5, **KW)
+    np.testing.assert_array_equal(df["per_revolution"], ref["per_revolution"])
+    assert (df["verdict"] != "chaotic").all()
+    was = (ref["verdict"] == "chaotic").to_numpy()
+    assert (df.loc[was, "verdict"] == "uncertain").all()
+    assert df.loc[was, "message"].str.contains("section of 4 points").all()
+    assert (df.loc[~was, "verdict"].to_numpy() == ref.loc[~was, "verdict"].to_numpy()).all()
+    with pytest.raises(InputError, match="min_section_points = -1"):
+        chaos_map(SCENE, PX, VX, PY, VY, workers=1, min_section_points=-1, **KW)
+
+
 def test_a_cell_is_the_section_and_exponent_of_its_scene(reference):
     """Cell (x = 5e-4, mu = 0.1) equals a direct stroboscopic section + the tangent estimator
     (the default) from its end."""

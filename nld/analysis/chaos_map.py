@@ -80,10 +80,11 @@ MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
 # settings checked on resume besides bifurcation's (nld.analysis.bifurcation._SETTINGS), also
 # when the directory holds no finished cell yet
 _EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check", "check_span",
-                   "lyapunov_integrator", "estimator")
+                   "min_section_points", "lyapunov_integrator", "estimator")
 # what a provenance.json written before an extra setting existed stands for (dopri5, two
 # trajectories, a check over the same span)
-_EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin", "check_span": 1.0}
+_EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin", "check_span": 1.0,
+                   "min_section_points": 0}
 # exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
 CHECK_FACTOR = 3.0
 
@@ -100,6 +101,7 @@ class _Job:
     zero_one: dict
     rtol_check: float | None = None
     check_span: float = 1.0
+    min_section_points: int = 0
     lyapunov_method: str = "dopri5"
     estimator: str = "tangent"
 
@@ -227,6 +229,13 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
         status = "failed"
         message = (str(e) if isinstance(e, _CellFailed)
                    else f"{type(e).__name__}: {' '.join(str(e).split())}")
+    verdict = _verdict(lam, unc, status, lam_c, unc_c)
+    n_sec = int((table["rev"] >= 0).sum()) if table is not None and "rev" in table else 0
+    if verdict == "chaotic" and n_sec < job.min_section_points:
+        # a positive exponent over a section too short to tell an attractor from a transient
+        verdict = "uncertain"
+        notes.append(f"lambda > 0 over a section of {n_sec} points (a chaotic verdict needs "
+                     f"{job.min_section_points})")
     if notes:
         message = (message + "; " if message else "") + "; ".join(notes)
     if table is None:
@@ -238,7 +247,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
             "iy": np.full(n, iy, dtype=np.int64)}
     summary = {"exponent": lam, "uncertainty": unc, "per_revolution": per_rev,
                "uncertainty_per_revolution": unc_rev,
-               "verdict": _verdict(lam, unc, status, lam_c, unc_c),
+               "verdict": verdict,
                "K": K, "K_spread": K_spread, "period": int(period), "status": status,
                "message": message, "per_revolution_check": per_rev_c,
                "uncertainty_per_revolution_check": unc_rev_c}
@@ -290,6 +299,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
               zero_one: dict | None = None, period_tol: float = 1e-6,
               max_steps: int = LYAPUNOV.max_steps, batch_size: int | None = None,
               progress=None, rtol_check: float | None = None, check_span: float = 1.0,
+              min_section_points: int = 0,
               lyapunov_method: str = "dopri5", estimator: str = "tangent",
               on_point=None) -> pd.DataFrame:
     """The largest Lyapunov exponent and the 0-1 test over the grid values_x x values_y.
@@ -308,7 +318,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     the scaled norm; d0 is refused with the tangent estimator).
     rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
     from the same state, averaged over ``check_span`` (default 1, >= 1) times the span; the cell
-    is "uncertain" unless both agree (module docstring, step 4). It costs about check_span x
+    is "uncertain" unless both agree (module docstring, step 4). min_section_points (default 0):
+    a cell with a positive exponent over a section of fewer points is "uncertain", not chaotic
+    (a short section cannot tell an attractor from a transient; the studies use 50). It costs about check_span x
     (rtol / rtol_check)^(1/5) times the exponent (DOPRI5's steps), twice or more.
     lyapunov_method: the integrator of the exponent (and of its check): "dopri5" (default; the
     only one of the tangent estimator); with estimator="benettin" also "dop853" (stops with a message where its stiffness detection fires) or
@@ -368,6 +380,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     if rtol_check is not None and not (isinstance(rtol_check, (int, float))
                                        and 1e-14 <= rtol_check < 1):
         raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
+    if not (isinstance(min_section_points, (int, np.integer)) and not isinstance(min_section_points, bool)
+            and min_section_points >= 0):
+        raise InputError(f"min_section_points = {min_section_points!r}: must be an integer >= 0")
     if not (isinstance(check_span, (int, float)) and not isinstance(check_span, bool)
             and 1.0 <= check_span <= 100.0):
         raise InputError(f"check_span = {check_span!r}: must be a number in [1, 100] (the check's "
@@ -383,7 +398,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
                d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
                rtol_check=None if rtol_check is None else float(rtol_check),
-               check_span=float(check_span), lyapunov_method=lyapunov_method, estimator=estimator)
+               check_span=float(check_span), min_section_points=int(min_section_points),
+               lyapunov_method=lyapunov_method, estimator=estimator)
     settings = dict(scene=sc.name, scene_parameters=raw, param=[keys_x, keys_y], values=[vx, vy],
                     transient_revs=transient_revs, revs=revs, observables=spec.observables,
                     rtol=spec.rtol, continuation=False, up_down=False, max_steps=spec.max_steps,
@@ -391,6 +407,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
                     lyapunov_revs=spec.lyapunov_revs, lyapunov_rtol=spec.lyapunov_rtol,
                     d0=job.d0, seed=job.seed, observable=observable, zero_one=zero_one,
                     rtol_check=job.rtol_check, check_span=job.check_span,
+                    min_section_points=job.min_section_points,
                     lyapunov_integrator=lyapunov_method,
                     estimator=estimator, lyapunov_estimator=estimator)
     prov = dict(nld_version=__version__, git_hash=git_hash(), kind="chaos_map",
