@@ -101,3 +101,22 @@ def test_target_uncertainty_is_reached_or_said_not_reached():
     q = lyapunov_tangent(lorenz(), total=20.0, target_uncertainty=1e-4, max_total=60.0)
     assert q.settings["target_reached"] is False
     assert q.settings["total"] == pytest.approx(60.0, rel=1e-9)
+
+
+def test_systems_from_the_same_functions_share_their_compiled_solvers():
+    """A parameter sweep over user systems compiles the integrator and the tangent solver once:
+    systems made from the same functions share them (nothing is compiled by this test); other
+    functions get their own."""
+    from nld.systems.core import _make_solver, lorenz_rhs
+    from nld.systems.tangent import tangent_functions
+    a = ContinuousSystem(lorenz_rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "a")
+    b = ContinuousSystem(lorenz_rhs, [1.0, 1.0, 1.0], [10.0, 0.5, 8.0 / 3.0], "b")
+    assert tangent_functions(a)[0] is tangent_functions(b)[0]
+    assert _make_solver(a.rhs, a.events, a.on_event) is _make_solver(b.rhs, b.events, b.on_event)
+
+    @njit
+    def other(t, y, p, z, dy):
+        dy[0] = -y[0]
+    c = ContinuousSystem(other, [1.0], [], "c")
+    assert tangent_functions(c)[0] is not tangent_functions(a)[0]
+    assert _make_solver(c.rhs, c.events, c.on_event) is not _make_solver(a.rhs, a.events, a.on_event)

@@ -221,12 +221,16 @@ class ContinuousSystem:
 
 def _make_solver(rhs, events, on_event, method: str = "dopri5"):
     """A jitted wrapper of the integrator ``method`` for user functions (compiled once per
-    process, not cached).
+    process and set of functions, not cached on disk: systems made from the same functions, as
+    in a parameter sweep, share it).
 
     ``dopri5`` is ``cache=True, inline='always'``: calling it from Python with function
     arguments would try to write dispatcher types into its disk-cache index, which fails once
     that index holds types of functions from other processes; inlined into this uncached
     closure it never touches the cache."""
+    key = (rhs, events, on_event, method)
+    if key in _USER_SOLVERS:
+        return _USER_SOLVERS[key]
     integrator = native_integrator(method)     # a compile-time constant of the closure
 
     @njit
@@ -234,7 +238,12 @@ def _make_solver(rhs, events, on_event, method: str = "dopri5"):
               event_samples):
         return integrator(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
                           hmax, max_steps, n_events, max_log, event_samples)
+    _USER_SOLVERS[key] = solve
     return solve
+
+
+# the solvers compiled for user functions, by (rhs, events, on_event, method)
+_USER_SOLVERS: dict = {}
 
 
 class DiscreteMap:

@@ -219,6 +219,17 @@ def tangent_functions(system):
         return cached
     if system.is_map:
         raise InputError(f"{system.name} is a map: it has no tangent flow (its Jacobian is used)")
+    # a user system's solver is compiled once per set of functions, not per system: systems made
+    # from the same rhs (a parameter sweep) share it (each compilation takes tens of seconds)
+    key = None
+    if getattr(system, "kernel", None) is None and getattr(system, "builtin_code", None) is None:
+        key = (system.rhs, system.jacobian, system.jvp,
+               system.events if system.n_events > 0 else None,
+               system.on_event if system.n_events > 0 else None,
+               np.asarray(system.scales, dtype=float).tobytes())
+        if key in _USER_TANGENT:
+            system._tangent_solver = _USER_TANGENT[key]
+            return system._tangent_solver
     kern = getattr(system, "kernel", None)
     if kern is not None and hasattr(kern.module, "solve_tangent"):
         res = (kern.module.solve_tangent, "generated")
@@ -257,8 +268,14 @@ def tangent_functions(system):
                                   p, rtol, atol, scales, h0, hmax, max_steps, n_events,
                                   tangent_err, want_div, diag, logs, event_samples)
         res = (solve_tangent, how)
+    if key is not None:
+        _USER_TANGENT[key] = res
     system._tangent_solver = res
     return res
+
+
+# the tangent solvers compiled for user systems, by (rhs, jacobian, jvp, events, on_event, scales)
+_USER_TANGENT: dict = {}
 
 
 def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_err: bool = True,
