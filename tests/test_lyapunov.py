@@ -231,9 +231,13 @@ def test_method_is_checked_and_carried():
     assert s.method == "rodas" and s._solve is s.kernel.module.solve_rodas
 
 
+@pytest.mark.slow
 def test_lorenz_with_the_stiff_method():
     """Benettin with both trajectories integrated by Rodas4 (finite-difference Jacobian of a user
-    right-hand side) reproduces Lorenz' 0.906 as DOPRI5 does."""
+    right-hand side) reproduces Lorenz' 0.906 as DOPRI5 does. Slow for its compilation (Rodas4
+    for a user rhs, about 45 s cold); the default run keeps Rodas4's accuracy
+    (test_integrators: Van der Pol, slider_crank) and Benettin with a non-default integrator
+    (test_chaos_map: DOP853, equal to lyapunov_benettin's value)."""
     s = S.ContinuousSystem(S.lorenz_rhs, [1.0, 1.0, 1.0], [10.0, 28.0, 8.0 / 3.0], "lorenz-rodas",
                            method="rodas")
     r = lyapunov_benettin(s, total=1000.0, rtol=1e-9)
