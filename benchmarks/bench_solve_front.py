@@ -1,0 +1,18 @@
+"""Overhead of the generated solve wrappers' Python front (nld.kernel.codegen: argument types fixed by
+nld.kernel.support.writable_vector) against calling the jitted wrapper directly, side by side on a tiny
+window of slider_crank (so the per-call cost dominates). Run: python benchmarks/bench_solve_front.py
+"""
+import time, numpy as np
+from nld.kernel.compile import compile_scene
+from nld.model.scene import load_scene
+from nld.run.simulate import initial_state
+k = compile_scene(load_scene("slider_crank")); m = k.module
+y0, z0, _ = initial_state(k); p = k.params(k.scene)
+te = np.array([0.0, 1e-5]); atol = np.full(y0.size, 1e-9)
+args = lambda: (0.0, y0.copy(), te, False, p, z0.copy(), 1e-7, atol, 0.0, 1e-3, 10**6, k.n_events, 8, 3)
+m.solve(*args()); m.solve_jit(*args())
+for name, f in (("solve (Python front)", m.solve), ("solve_jit (direct)", m.solve_jit)) * 2:
+    a = [args() for _ in range(2000)]
+    t0 = time.perf_counter()
+    for x in a: f(*x)
+    print(f"{name}: {(time.perf_counter() - t0) / 2000 * 1e6:.2f} us per call")
