@@ -45,3 +45,24 @@ def test_scenes_of_the_same_structure_share_one_kernel():
     assert a.source_path == b.source_path and a.module is b.module
     c = compile_scene(load_scene("slider_crank_olyaei", ['joints.B.contact.law="hertz"']))
     assert c.source_path != a.source_path
+
+
+def test_one_compiled_integrator_per_kernel_whatever_the_caller_passes():
+    """A read-only t_eval (a pandas column, a broadcast) and a call without event_samples used to
+    compile the whole integrator again; the generated solve's Python front fixes the types, so
+    every caller below uses one specialisation (and observe_all one)."""
+    import numpy as np
+    from nld.run.simulate import simulate
+    from nld.systems.core import SceneSystem, advance
+    kern = compile_scene(load_scene("slider_crank"))
+    t = np.linspace(0.0, 2e-3, 5)
+    t.setflags(write=False)
+    simulate("slider_crank", t_eval=t)
+    simulate("slider_crank", revs=0.01)
+    s = SceneSystem("slider_crank")
+    advance(s, s.y0, s.z0, 0.0, 1e-3, 1e-7)
+    y, z = s.y0.copy(), s.z0.copy()
+    kern.module.solve(0, y, np.array([1e-3]), 0, s.p, z, 1e-7, s.tolerance(1e-7), 0, 1e-3, 10**6,
+                      kern.n_events, 8)          # ints for floats, event_samples left out
+    assert len(kern.module.solve_jit.signatures) == 1, kern.module.solve_jit.signatures
+    assert len(kern.module.observe_all.signatures) == 1, kern.module.observe_all.signatures
