@@ -141,6 +141,12 @@ def numbalsoda_runs(setup, st, refs, log):
     Z = np.ascontiguousarray(setup.z0, dtype=float)
     NZ = int(Z.size)
     SC = np.ascontiguousarray(state_scales(setup.kern, setup.q), dtype=float)
+    ZL = setup.kern.z_layout
+    # hertz_damped joints: the clamp (the unclamped force's zero) is a mode too; its event function
+    # with the joint's flags set to contact gives the unclamped force (one events() call, as before)
+    CL = np.array([ci in ZL.clamp for ci in range(NC)], dtype=np.bool_)
+    SIG = np.array([ZL.sig_c.get(ci, 0) for ci in range(NC)], dtype=np.int64)
+    EVC = np.array([ZL.ev_c.get(ci, 0) for ci in range(NC)], dtype=np.int64)
     try:
         @cfunc(numbalsoda.lsoda_sig)
         def f(t, u, du, data):
@@ -154,10 +160,18 @@ def numbalsoda_runs(setup, st, refs, log):
             for i in range(n):
                 y[i] = uu[i] * SC[i]
             # no events in numbalsoda: hertz_damped's contact mode follows the penetration's sign
-            # at every evaluation (the law stepped across, as before issue 14)
+            # and the clamp the unclamped force's sign at every evaluation (the law stepped across,
+            # as before issue 14)
+            for i in range(NC):
+                zz[i] = 1.0
+                if CL[i]:
+                    zz[SIG[i]] = 1.0
             events(t, y, P, zz, g)
             for i in range(NC):
-                zz[i] = 1.0 if g[i] > 0.0 else 0.0
+                if g[i] <= 0.0:
+                    zz[i] = 0.0
+                elif CL[i] and g[EVC[i]] <= 0.0:
+                    zz[i] = -1.0
             rhs(t, y, P, zz, dy)
             for i in range(n):
                 dd[i] = dy[i] / SC[i]

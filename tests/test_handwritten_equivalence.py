@@ -91,17 +91,28 @@ def random_states(ph, n=N_STATES, seed=20240611):
     return out
 
 
-def _zfull(kern, z):
-    """The scene kernel's discrete state with the hand kernel's z[0] (other modes: their start)."""
+def _zfull(kern, z, t=None, y=None, p=None):
+    """The scene kernel's discrete state with the hand kernel's z[0] (other modes: their start).
+
+    hertz_damped: the hand model's contact mode (z[0] > 0) clamps its force with max(F, 0), as
+    the paper writes it. The kernel's contact mode does not: the clamp is a located event to its
+    clamped mode z[0] < 0 (docs/contact-laws.md, "Modes"). So at a state whose unclamped force
+    K max(d, 0)^n + C d' (the kernel's clamp event function) is negative the kernel is given the
+    clamped mode, the mode it is in there on a trajectory."""
     zz = np.ones(kern.n_z)
     zz[0] = z[0]
+    if y is not None and kern.z_layout.clamp and z[0] > 0.0:
+        g = np.empty(kern.n_events)
+        kern.module.events(t, y, p, zz, g)
+        if g[kern.z_layout.ev_c[0]] < 0.0:
+            zz[0] = -z[0]
     return zz
 
 
 def _rhs_pair(kern, p, ph, t, y, z, hand_p=None):
     d_scene = np.empty(4)
     d_hand = np.empty(4)
-    kern.module.rhs(t, y, p, _zfull(kern, z), d_scene)
+    kern.module.rhs(t, y, p, _zfull(kern, z, t, y, p), d_scene)
     H.rhs(t, y, ph if hand_p is None else hand_p, z.copy(), d_hand)
     return d_scene, d_hand
 

@@ -220,6 +220,17 @@ SAFE = 0.9
 FAC1 = 0.333     # hnew/h >= FAC1
 FAC2 = 6.0       # hnew/h <= FAC2
 FACC1 = 1.0 / FAC1
+# After an event that changed the mode (z: the first step on a new branch of the vector field)
+# a rejected step shrinks by up to FACC1_EVENT (not FACC1), and as if its error were O(h^4)
+# (EXPO_EVENT; never less than the usual shrink): the step starts at the previous branch's size,
+# and at a contact onset the solution is not smooth (a force like (t - t*)^1.5), so err^(1/(q+1))
+# under-shrinks and the first step took 6-12 rejections (benchmarks/results/hybrid.md, stop 21).
+# Only mode changes: a user rhs that branches on the sign of a state (tests/test_tangent.py's
+# piecewise-linear oscillator) lands on either side of its switch, and with the larger shrink
+# its first step became short enough for its dense output to show spurious sign changes at
+# round-off level (two extra events at one instant).
+FACC1_EVENT = 1.0e3
+EXPO_EVENT = 1.0 / 4.0
 FACC2 = 1.0 / FAC2
 BETA = 0.0       # dop853.f default: no PI term
 EXPO1 = 1.0 / 8.0 - BETA * 0.2
@@ -385,6 +396,30 @@ def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
             cont[4 + r, i] = h * acc
 
 
+@njit(cache=True, inline='always')
+def _hermite_screen(events, n_samples, t, h, y, ynew, K, yint, gtmp, sgn, p, z):
+    """Whether some event function with a tracked side has left it at one of ``n_samples``
+    equally spaced interior points t + j h / (n_samples + 1) of the step, evaluated on the cubic
+    Hermite interpolant of the step's ends (y, K[0] = f(t, y), ynew, K[12] = f(t + h, ynew): the
+    first four terms of CONTD8, no extra stage). The 7th-order dense output costs three more rhs
+    evaluations; it is formed only for a step this screen (or the step's end) flags, and the
+    scan, refinement and root are then taken on it (nld.integrators.events)."""
+    n = y.shape[0]
+    ne = gtmp.shape[0]
+    for j in range(1, n_samples + 1):
+        th = j / (n_samples + 1)
+        th1 = 1.0 - th
+        for i in range(n):
+            dy = ynew[i] - y[i]
+            bspl = h * K[0, i] - dy
+            yint[i] = y[i] + th * (dy + th1 * (bspl + th * (dy - h * K[12, i] - bspl)))
+        events(t + th * h, yint, p, z, gtmp)
+        for q in range(ne):
+            if sgn[q] != 0 and gtmp[q] * sgn[q] <= 0.0:
+                return True
+    return False
+
+
 @njit(cache=True)
 def _all_finite(a):
     for v in a.ravel():
@@ -445,6 +480,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     K = np.empty((16, n))
     cont = np.empty((8, n))
     gcur = np.empty(ne)
+    zsave = np.empty_like(z)
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
     gw = np.empty((4, ne))
@@ -495,6 +531,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     iasti = 0
     nonsti = 0
     after_event = False
+    new_branch = False
     status = 0
 
     while True:
@@ -536,7 +573,10 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
         fac11 = err ** EXPO1
         if err > 1.0:
-            h = h / min(FACC1, fac11 / SAFE)
+            shrink = min(FACC1, fac11 / SAFE)
+            if new_branch:
+                shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
+            h = h / shrink
             reject = True
             n_rej += 1
             if h < 16.0 * EPS * abs(t) or h < 1e-300:
@@ -551,6 +591,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             hnew = min(hnew, h)
         reject = False
         after_event = False
+        new_branch = False
         facold = max(err, FACOLD0)
         n_acc += 1
         # Hairer's stiffness detection: |h| * |f(ynew) - f(y12)| / |ynew - y12| at t_new
@@ -569,7 +610,8 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         t_star = t_new
         if ne > 0:
             events(t_new, ynew, p, z, gnew)
-            if event_samples > 0 or find_crossings(gnew, sgn, crossed):
+            if find_crossings(gnew, sgn, crossed) or (event_samples > 0 and _hermite_screen(
+                    events, event_samples, t, h, y, ynew, K, yint, gtmp, sgn, p, z)):
                 _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
                 nfev += 3
                 if not _all_finite(cont):
@@ -671,10 +713,17 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             h = hnew
             continue
 
+        for i in range(z.shape[0]):
+            zsave[i] = z[i]
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
         # z may have changed: FSAL is invalid, recompute K[0] and g at the event point
         after_event = True
+        # a mode change (on_event changed z) starts a new branch of the vector field
+        new_branch = False
+        for i in range(z.shape[0]):
+            if z[i] != zsave[i]:
+                new_branch = True
         rhs(t, y, p, z, K[0])
         nfev += 1
         events(t, y, p, z, gcur)

@@ -85,6 +85,17 @@ SAFE = 0.9
 FACMIN = 0.2    # hnew/h >= FACMIN
 FACMAX = 10.0   # hnew/h <= FACMAX
 FACC1 = 1.0 / FACMIN
+# After an event that changed the mode (z: the first step on a new branch of the vector field)
+# a rejected step shrinks by up to FACC1_EVENT (not FACC1), and as if its error were O(h^4)
+# (EXPO_EVENT; never less than the usual shrink): the step starts at the previous branch's size,
+# and at a contact onset the solution is not smooth (a force like (t - t*)^1.5), so err^(1/(q+1))
+# under-shrinks and the first step took 6-12 rejections (benchmarks/results/hybrid.md, stop 21).
+# Only mode changes: a user rhs that branches on the sign of a state (tests/test_tangent.py's
+# piecewise-linear oscillator) lands on either side of its switch, and with the larger shrink
+# its first step became short enough for its dense output to show spurious sign changes at
+# round-off level (two extra events at one instant).
+FACC1_EVENT = 1.0e3
+EXPO_EVENT = 1.0 / 4.0
 FACC2 = 1.0 / FACMAX
 FACOLD0 = 1.0e-4
 MAX_NONFINITE = 50
@@ -264,6 +275,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     k7 = np.empty(n)
     cont = np.empty((5, n))                 # dense output of the last step
     gcur = np.empty(ne)
+    zsave = np.empty_like(z)
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
     gw = np.empty((4, ne))
@@ -310,6 +322,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
     facold = FACOLD0
     reject = False
+    new_branch = False
     n_nonfinite = 0
     status = 0
 
@@ -351,7 +364,10 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         fac11 = err ** EXPO1
         if err > 1.0:
             # rejected
-            h = h / min(FACC1, fac11 / SAFE)
+            shrink = min(FACC1, fac11 / SAFE)
+            if new_branch:
+                shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
+            h = h / shrink
             reject = True
             n_rej += 1
             if h < 16.0 * EPS * abs(t) or h < 1e-300:
@@ -366,6 +382,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         if reject:
             hnew = min(hnew, h)
         reject = False
+        new_branch = False
         facold = max(err, FACOLD0)
         n_acc += 1
 
@@ -442,9 +459,16 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             y, ynew = ynew, y
 
         # fire every crossing whose root is within tol of t_star
+        for i in range(z.shape[0]):
+            zsave[i] = z[i]
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
         # z may have changed: FSAL is invalid, recompute k1 and g at the event point
+        # a mode change (on_event changed z) starts a new branch of the vector field
+        new_branch = False
+        for i in range(z.shape[0]):
+            if z[i] != zsave[i]:
+                new_branch = True
         rhs(t, y, p, z, k1)
         nfev += 1
         events(t, y, p, z, gcur)

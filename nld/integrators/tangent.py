@@ -43,8 +43,8 @@ from numba import njit
 
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
                      A71, A73, A74, A75, A76, BETA, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EPS,
-                     EXPO1, FACC1, FACC2, FACOLD0, MAX_NONFINITE, ROOT_RTOL, SAFE, dense_coeffs,
-                     interp, rweight)
+                     EXPO1, EXPO_EVENT, FACC1, FACC1_EVENT, FACC2, FACOLD0, MAX_NONFINITE,
+                     ROOT_RTOL, SAFE, dense_coeffs, interp, rweight)
 from .events import EVENT_SAMPLES, locate_earliest, set_unknown_signs
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
@@ -283,6 +283,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
 
     facold = FACOLD0
     reject = False
+    new_branch = False
     n_nonfinite = 0
     status = 0
     hnew = h
@@ -392,7 +393,10 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             n_nonfinite = 0
             fac11 = err ** EXPO1
             if err > 1.0:
-                h = h / min(FACC1, fac11 / SAFE)
+                shrink = min(FACC1, fac11 / SAFE)
+                if new_branch:
+                    shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
+                h = h / shrink
                 reject = True
                 n_rej += 1
                 if h < 16.0 * EPS * abs(t) or h < 1e-300:
@@ -405,6 +409,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             if reject:
                 hnew = min(hnew, h)
             reject = False
+            new_branch = False
             facold = max(err, FACOLD0)
             n_acc += 1
 
@@ -499,7 +504,12 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
                        crossed, troot_b, t_star + tol, sgn, diag, gtmp, gd, unit, wtmp, zcopy,
                        zdz, zzero)
-        # restart: derivatives at the event point with the new discrete state
+        # restart: derivatives at the event point with the new discrete state; a mode change
+        # (on_event changed z) starts a new branch of the vector field
+        new_branch = False
+        for i in range(nz):
+            if z[i] != zold[i]:
+                new_branch = True
         tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div,
                           trace_tmp, unit)
         nfev += 1

@@ -893,14 +893,19 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
     for ci in ZL.clamp:
         jn = t.clearance[ci]
         pre = f"joints.{jn}."
+        # the unclamped force: positive in contact, negative once clamped; 1 (inactive) when free
+        # (and then not computed: a free joint's event scan needs its penetration only)
+        E.w(f"hc{ci} = 1.0")
+        E.w(f"if z[{ci}] != 0.0:")
+        E.ind += 1
         E.w(f"exc = A{ci}x - B{ci}x; eyc = A{ci}y - B{ci}y; eccc = np.sqrt(exc*exc + eyc*eyc)")
         E.w(f"ddc = ((A{ci}vx - B{ci}vx)*exc + (A{ci}vy - B{ci}vy)*eyc)/eccc if eccc > 0.0 else 0.0")
         E.w(f"pc = max(eccc - {E.P(pre + 'clearance')}, 0.0)")
-        # the unclamped force: positive in contact, negative once clamped; 1 (inactive) when free
         law = law_of(j)
         head = f"{E.P(pre + 'contact.stiffness')}, {E.P(pre + 'contact.exponent')}"
         E.w(f"Fr{ci} = {law.unclamped.__name__}(pc, ddc, {law_arguments(E, law, pre, head, '')})")
-        E.w(f"hc{ci} = Fr{ci} if z[{ci}] > 0.0 else (-Fr{ci} if z[{ci}] < 0.0 else 1.0)")
+        E.w(f"hc{ci} = Fr{ci} if z[{ci}] > 0.0 else -Fr{ci}")
+        E.ind -= 1
         E.w(f"g[{ZL.ev_c[ci]}] = z[{ZL.sig_c[ci]}]*hc{ci}")
     out.append("@njit(cache=True)")
     out.append("def events(t, y, p, z, g):")

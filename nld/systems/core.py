@@ -537,7 +537,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     e.g. a journal held off its bearing's centre); its discrete state from ``Kernel.init_modes``.
     """
     from nld.kernel.compile import compile_scene
-    from nld.run.simulate import crank_period, initial_state, state_scales, tolerances
+    from nld.run.simulate import crank_period, initial_state, state_scales, tolerances_from_scales
     from nld.model.scene import resolve_scene
     scene = resolve_scene(scene_or_name, overrides)
     kern = kernel if kernel is not None else compile_scene(scene)
@@ -573,7 +573,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
                                   if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
                                  dtype=np.int64)
-    sysm.tolerance_fn = lambda rtol, _k=kern, _q=q: tolerances(_k, _q, rtol)
+    sysm.tolerance_fn = lambda rtol, _s=sysm.scales: tolerances_from_scales(_s, rtol)
     return sysm
 
 
