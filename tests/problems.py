@@ -6,11 +6,17 @@ three integrators costs about 40 s of a cold run's numba compilation). The rhs/e
 are module globals of the wrappers, so numba's disk cache holds them (nld/integrators/dopri5.py).
 """
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit
 
 from nld.integrators import dop853, dop853_fixed, dopri5, rodas, rodas_fixed
+from nld.kernel.compile import drop_stale_numba_cache
+
+# numba's disk cache of this module checks only this file's timestamp, not the integrators'
+# (inlined into the wrappers below): after an integrator change a local run would test stale code
+drop_stale_numba_cache(Path(__file__))
 
 PEND, VDP, NAN, BANG, LIN, OFFSET, UNIT = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0
 

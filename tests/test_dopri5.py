@@ -28,6 +28,13 @@ from nld.integrators import (
     status_message,
 )
 
+from pathlib import Path as _Path
+from nld.kernel.compile import drop_stale_numba_cache
+
+# this module's njit(cache=True) wrappers inline nld's integrators; numba's cache checks only this
+# file's timestamp (after an integrator change a local run would test stale code)
+drop_stale_numba_cache(_Path(__file__))
+
 # ------------------------------------------------------------------ test problems
 
 

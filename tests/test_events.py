@@ -113,3 +113,21 @@ def test_system_refuses_bad_event_samples_and_a_wrapper_without_it():
         ContinuousSystem(unit_rhs, [0.0], solve=old_solve, event_samples=0)
     S = ContinuousSystem(unit_rhs, [0.0], solve=old_solve)      # the default: accepted
     assert S.event_samples == EVENT_SAMPLES
+
+
+def test_dop853_forms_its_dense_output_only_for_steps_the_screen_flags():
+    """dop853 scans its interior samples on the cubic Hermite interpolant of the step's ends and
+    forms its 7th-order dense output (3 more rhs evaluations) only for a flagged step: with every
+    root far outside the run, the default sampling costs no rhs evaluation over ends-only; with the
+    roots of ROOTS inside two steps it costs some (the flagged steps), and all five are found (the
+    test above)."""
+    def nfev(roots, m):
+        p = np.array([UNIT, *roots], dtype=float)
+        out = adaptive(1, 0.0, np.zeros(1), np.array([1.0]), True, p, np.zeros(2), 1e-6,
+                       np.array([1e-6]), 0.1, 0.1, 1000, 2, 16, m)
+        assert out[0] == 0
+        return int(out[4][3]), int(out[8])
+    far = (5.0, 6.0, 7.0, 8.0, 9.0)
+    assert nfev(far, EVENT_SAMPLES) == nfev(far, 0)
+    (n3, ev3), (n0, ev0) = nfev(ROOTS, EVENT_SAMPLES), nfev(ROOTS, 0)
+    assert ev3 == 5 and ev0 == 1 and n3 > n0

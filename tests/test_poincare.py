@@ -13,6 +13,13 @@ from nld.run.simulate import crank_period, simulate
 from nld.model.scene import load_scene
 from nld.systems.core import duffing
 
+from pathlib import Path as _Path
+from nld.kernel.compile import drop_stale_numba_cache
+
+# this module's njit(cache=True) wrappers inline nld's integrators; numba's cache checks only this
+# file's timestamp (after an integrator change a local run would test stale code)
+drop_stale_numba_cache(_Path(__file__))
+
 TORQUE = ['driver.mode="torque"', "driver.inertia=1e-3", "driver.torque=0.0"]
 
 
