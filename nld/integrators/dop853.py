@@ -22,7 +22,10 @@ going on with a noisy, possibly wrong stiff component (seen on heavily damped pe
 use the stiff solver ``rodas``.
 
 Events are located by :mod:`nld.integrators.events` (shared by every integrator: interior
-samples of the dense output, Illinois, earliest root wins, step retaken to land on it). This
+samples of the dense output, Illinois, earliest root wins, step retaken to land on it). The
+7th-order dense output costs three more rhs evaluations, so the interior samples are first
+screened on the cubic Hermite interpolant of the step's ends (``_hermite_screen``) and the dense
+output is formed only for a step the screen, the step's end or an output time flags. This
 module also holds the output helpers shared with :mod:`nld.integrators.rosenbrock`
 (``write_outputs``, ``initial_step``).
 

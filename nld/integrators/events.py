@@ -26,6 +26,9 @@ REFINE inside a piece that is refined) that fall between two samples; no finite 
 exclude that (docs/integrator.md, "Events").
 
 ``n_samples = 0`` reproduces the ends-only location of nld before issue 13 item 5 bit for bit.
+DOP853, whose dense output costs three rhs evaluations, calls this only for steps that a scan of
+the same samples on the cubic Hermite interpolant of the step's ends has flagged
+(``nld.integrators.dop853._hermite_screen``).
 """
 import numpy as np
 from numba import njit
