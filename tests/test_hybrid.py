@@ -307,6 +307,35 @@ def test_hertz_damped_contacts_do_not_cascade_rejections():
         assert r.stats["rejected"] < share * r.stats["accepted"], (method, r.stats)
 
 
+def test_free_mode_clamp_event_and_scene_tolerances():
+    """Two shortcuts of stop 21 give what they replace: (a) the kernel's events() skips the clamp
+    force in free mode, where the clamp function is sigma * 1 (inactive), and computes it in the
+    contact and clamped modes (sigma * F, sigma * -F); (b) SceneSystem.tolerance keeps the state
+    scales and equals nld.run.simulate.tolerances (which walks the geometry every call)."""
+    from nld.run.simulate import initial_state, tolerances
+    from nld.systems.core import SceneSystem
+    S = SceneSystem("slider_crank", ["joints.B.contact.law=hertz_damped", "joints.B.contact.damping=400"])
+    kern = S.kernel
+    y0, z0, q = initial_state(kern)
+    zl = kern.z_layout
+    ci = zl.clamp[0]
+    g = np.empty(kern.n_events)
+    y = y0.copy()
+    y[0] += 0.3e-3                                # the journal off centre (ecc > 0) ...
+    y[2] += 3.0                                   # ... and a slider velocity: ddot != 0
+    vals = {}
+    for mode in (0.0, 1.0, -1.0):
+        z = z0.copy()
+        z[ci] = mode
+        z[zl.sig_c[ci]] = -1.0
+        kern.module.events(0.0, y, S.p, z, g)
+        vals[mode] = g[zl.ev_c[ci]]
+    assert vals[0.0] == -1.0
+    assert vals[1.0] == -vals[-1.0] != 0.0
+    for rtol in (1e-6, 1e-9):
+        assert np.array_equal(S.tolerance(rtol), tolerances(kern, q, rtol))
+
+
 # ------------------------------------------------------------------ switched loads
 def _excavator_ambrosio(revs, rtol, **kw):
     return simulate("excavator", revs=revs, rtol=rtol, samples_per_rev=10,

@@ -39,7 +39,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, rweight
+from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, rejected_shrink, rweight
 from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
                      set_unknown_signs)
 
@@ -223,17 +223,7 @@ SAFE = 0.9
 FAC1 = 0.333     # hnew/h >= FAC1
 FAC2 = 6.0       # hnew/h <= FAC2
 FACC1 = 1.0 / FAC1
-# After an event that changed the mode (z: the first step on a new branch of the vector field)
-# a rejected step shrinks by up to FACC1_EVENT (not FACC1), and as if its error were O(h^4)
-# (EXPO_EVENT; never less than the usual shrink): the step starts at the previous branch's size,
-# and at a contact onset the solution is not smooth (a force like (t - t*)^1.5), so err^(1/(q+1))
-# under-shrinks and the first step took 6-12 rejections (benchmarks/results/hybrid.md, stop 21).
-# Only mode changes: a user rhs that branches on the sign of a state (tests/test_tangent.py's
-# piecewise-linear oscillator) lands on either side of its switch, and with the larger shrink
-# its first step became short enough for its dense output to show spurious sign changes at
-# round-off level (two extra events at one instant).
-FACC1_EVENT = 1.0e3
-EXPO_EVENT = 1.0 / 4.0
+# After a mode change a rejected step shrinks faster: nld.integrators.dopri5.rejected_shrink
 FACC2 = 1.0 / FAC2
 BETA = 0.0       # dop853.f default: no PI term
 EXPO1 = 1.0 / 8.0 - BETA * 0.2
@@ -576,10 +566,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
         fac11 = err ** EXPO1
         if err > 1.0:
-            shrink = min(FACC1, fac11 / SAFE)
-            if new_branch:
-                shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
-            h = h / shrink
+            h = h / rejected_shrink(err, fac11, FACC1, new_branch)
             reject = True
             n_rej += 1
             if h < 16.0 * EPS * abs(t) or h < 1e-300:

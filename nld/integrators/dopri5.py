@@ -100,6 +100,18 @@ FACC2 = 1.0 / FACMAX
 FACOLD0 = 1.0e-4
 MAX_NONFINITE = 50
 
+
+@njit(cache=True, inline='always')
+def rejected_shrink(err, fac11, facc1, new_branch):
+    """The factor h_old / h_new after a rejected step (err > 1): Hairer's min(facc1, fac11 / SAFE)
+    (fac11 = err^EXPO1 of the method), and on the first step after a mode change at least
+    min(FACC1_EVENT, err^EXPO_EVENT / SAFE) (the comment above). Used by dopri5, dop853 and the
+    tangent DOPRI5."""
+    shrink = min(facc1, fac11 / SAFE)
+    if new_branch:
+        shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
+    return shrink
+
 from .events import (EPS, EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
                      fire_events, locate_earliest, set_unknown_signs)
 
@@ -364,10 +376,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         fac11 = err ** EXPO1
         if err > 1.0:
             # rejected
-            shrink = min(FACC1, fac11 / SAFE)
-            if new_branch:
-                shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
-            h = h / shrink
+            h = h / rejected_shrink(err, fac11, FACC1, new_branch)
             reject = True
             n_rej += 1
             if h < 16.0 * EPS * abs(t) or h < 1e-300:

@@ -43,8 +43,8 @@ from numba import njit
 
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
                      A71, A73, A74, A75, A76, BETA, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EPS,
-                     EXPO1, EXPO_EVENT, FACC1, FACC1_EVENT, FACC2, FACOLD0, MAX_NONFINITE,
-                     ROOT_RTOL, SAFE, dense_coeffs, interp, rweight)
+                     EXPO1, FACC1, FACC2, FACOLD0, MAX_NONFINITE, ROOT_RTOL, SAFE, dense_coeffs,
+                     interp, rejected_shrink, rweight)
 from .events import EVENT_SAMPLES, locate_earliest, set_unknown_signs
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
@@ -393,10 +393,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             n_nonfinite = 0
             fac11 = err ** EXPO1
             if err > 1.0:
-                shrink = min(FACC1, fac11 / SAFE)
-                if new_branch:
-                    shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
-                h = h / shrink
+                h = h / rejected_shrink(err, fac11, FACC1, new_branch)
                 reject = True
                 n_rej += 1
                 if h < 16.0 * EPS * abs(t) or h < 1e-300:
