@@ -16,3 +16,16 @@ for name, f in (("solve (Python front)", m.solve), ("solve_jit (direct)", m.solv
     t0 = time.perf_counter()
     for x in a: f(*x)
     print(f"{name}: {(time.perf_counter() - t0) / 2000 * 1e6:.2f} us per call")
+
+# The tolerance vector per call (stop 21): nld.run.simulate.tolerances walks the scene's geometry in
+# Python; SceneSystem.tolerance (every advance() of the analyses) keeps the state scales.
+from nld.run.simulate import tolerances
+from nld.systems.core import SceneSystem
+S = SceneSystem("slider_crank")
+_, _, q = initial_state(S.kernel)
+for name, f in (("tolerances(kernel, q, rtol)", lambda: tolerances(S.kernel, q, 1e-8)),
+                ("SceneSystem.tolerance(rtol)", lambda: S.tolerance(1e-8))) * 2:
+    t0 = time.perf_counter()
+    for _ in range(2000):
+        f()
+    print(f"{name}: {(time.perf_counter() - t0) / 2000 * 1e6:.2f} us per call")
