@@ -11,6 +11,7 @@ from nld.analysis.lyapunov import lyapunov_tangent
 cases = [  # name, scene, overrides, report rtol, report revs, transient revs
     ("rhee c=0.05mm mu=0.01", "four_bar", ["joints.B.clearance=5e-5", "joints.B.friction.mu=0.01"], 1e-8, 200, 100),
     ("rhee c=0.25mm mu=0", "four_bar", ["joints.B.friction.mu=0.0"], 1e-8, 200, 100),
+    ("rhee c=0.25mm mu=0.02", "four_bar", ["joints.B.friction.mu=0.02"], 1e-8, 200, 100),
     ("rhee c=0.25mm mu=0.1", "four_bar", ["joints.B.friction.mu=0.1"], 1e-8, 200, 100),
     ("olyaei mu=0.05 5000rpm", "slider_crank_olyaei", ["joints.B.friction.mu=0.05"], 1e-10, 64, 100),
     ("olyaei mu=0 5000rpm", "slider_crank_olyaei", ["joints.B.friction.mu=0.0"], 1e-10, 64, 100),
