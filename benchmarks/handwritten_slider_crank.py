@@ -155,10 +155,9 @@ def on_event(k, direction, t, y, p, z):
     return 0
 
 
-@njit(cache=True)
 def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
-    """nld's dopri5 on this kernel: the same module-level wrapper as the generated kernels' ``solve``
-    (so numba's disk cache holds the integrator specialised for this right-hand side)."""
+    """nld's dopri5 on this kernel, called as the generated kernels' ``solve`` calls it (the
+    integrator compiled once, these functions passed as first-class function arguments)."""
     return dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
                   max_steps, n_events, max_log)
 

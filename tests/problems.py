@@ -1,9 +1,7 @@
 """Test problems for the integrators, shared by tests/test_integrators.py, tests/test_events.py and
 tests/test_tangent.py: one right-hand side, one event function and one reset for all of them
-(chosen by p[0]), and one ``@njit(cache=True)`` wrapper per integrator call kind, so that every
-integrator is compiled once for all the test problems of a run (each extra specialisation of the
-three integrators costs about 40 s of a cold run's numba compilation). The rhs/events/on_event
-are module globals of the wrappers, so numba's disk cache holds them (nld/integrators/dopri5.py).
+(chosen by p[0]). The adaptive integrators are compiled once per machine whatever the functions
+(nld.integrators.core); the fixed-step ones (used for convergence orders only) inline them.
 """
 import math
 from pathlib import Path
@@ -79,11 +77,10 @@ def problem_on_event(k, direction, t, y, p, z):
     return int(p[2])
 
 
-@njit(cache=True)
 def adaptive(which, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
              event_samples):
     """which = 0 dopri5, 1 dop853, 2 rodas on problem p[0] (arguments and results as
-    nld.integrators.dopri5.dopri5)."""
+    nld.integrators.dopri5.dopri5): the shared integrators, compiled once, with these functions."""
     if which == 0:
         return dopri5(problem_rhs, problem_events, problem_on_event, t0, y0, t_eval, land, p, z,
                       rtol, atol, h0, hmax, max_steps, n_events, max_log, event_samples)
@@ -101,7 +98,7 @@ def dopri5_solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_
                     max_log, event_samples)
 
 
-@njit(cache=True)
+@njit
 def fixed(which, y0, h, n, p):
     """n fixed steps of size h: which = 0 dop853, 1 rodas."""
     z = np.zeros(1)

@@ -22,18 +22,17 @@ from nld.integrators import (
     STOPPED,
     SUCCESS,
     dopri5,
+    Solution,
     dopri5_fixed,
     no_events,
     no_on_event,
     status_message,
 )
 
-from pathlib import Path as _Path
-from nld.kernel.compile import drop_stale_numba_cache
-
-# this module's njit(cache=True) wrappers inline nld's integrators; numba's cache checks only this
-# file's timestamp (after an integrator change a local run would test stale code)
-drop_stale_numba_cache(_Path(__file__))
+from nld.errors import InputError
+from nld.integrators.core import inlined
+from nld.integrators.dopri5 import dopri5_core
+from nld.integrators.events import EVENT_SAMPLES
 
 # ------------------------------------------------------------------ test problems
 
@@ -346,13 +345,20 @@ def test_status_messages():
 # ------------------------------------------------------------------ called from jitted code
 
 
+_DOPRI5_INLINED = inlined(dopri5_core)
+
+
 @njit
 def _jitted_driver(t_eval, p, z, rtol, atol):
-    return dopri5(bang_rhs, bang_events, bang_on_event, 0.0, np.array([1.0, 0.0]), t_eval,
-                  False, p, z, rtol, atol, 0.0, 0.0, 100000, 1, 16)
+    # the jitted core with plain numba functions: the integrator compiled with them inlined
+    return _DOPRI5_INLINED(bang_rhs, bang_events, bang_on_event, 0.0, np.array([1.0, 0.0]), t_eval,
+                       False, p, z, rtol, atol, 0.0, 0.0, 100000, 1, 16, EVENT_SAMPLES)
 
 
-def test_callable_from_jitted_code():
+def test_callable_from_jitted_code_and_inlined_equals_indirect():
+    """The core called from jitted code with the functions inlined gives the same trajectory,
+    events and counts, bit for bit, as the compiled-once integrator with the functions passed as
+    first-class function arguments (no arithmetic differs between the two builds)."""
     te = np.linspace(0.0, 4.0 * T1, 9)
     p = np.array([A_G, 0.0])
     z = np.array([1.0, 0.0, 0.0])
@@ -361,39 +367,60 @@ def test_callable_from_jitted_code():
     assert out[0] == SUCCESS and out[8] == 2
     assert np.array_equal(out[2], ref[2])
     assert np.array_equal(out[4], ref[4])
+    assert np.array_equal(out[5][:2], ref[5][:2])
+
+
+def test_result_is_named():
+    out = dopri5(bang_rhs, bang_events, bang_on_event, 0.0, np.array([1.0, 0.0]),
+                 np.linspace(0.0, T1, 3), False, np.array([A_G, 0.0]), np.array([1.0, 0.0, 0.0]),
+                 1e-10, np.array([1e-12, 1e-12]), 0.0, 0.0, 100000, 1, 16)
+    assert isinstance(out, Solution)
+    assert out.status == out[0] == SUCCESS and out.Y is out[2] and out.n_ev == out[8]
+
+
+def test_plain_python_function_is_refused():
+    def rhs(t, y, p, z, dy):
+        dy[0] = 1.0
+    with pytest.raises(InputError, match="rhs = 'rhs': must be a numba-compiled function"):
+        dopri5(rhs, None, None, 0.0, np.array([0.0]), np.array([1.0]), False, EMPTY, EMPTY, 1e-6,
+               np.array([1e-9]), 0.0, 0.0, 100, 0, 1)
 
 
 @pytest.mark.slow
-def test_jitted_wrapper_is_disk_cached(tmp_path):
-    """A cache=True wrapper calling dopri5 with module-global functions is loaded from the
-    numba disk cache in a second process (dopri5 is inlined into it)."""
+def test_integrator_compiled_once_per_machine(tmp_path):
+    """A second process with *another* right-hand side loads dopri5 from numba's disk cache: the
+    integrator is compiled once per machine, not per model (quick variant in the default run:
+    tests/test_compile_once.py)."""
     (tmp_path / "model_mod.py").write_text(textwrap.dedent("""
+        import sys
         import numpy as np
         from numba import njit
-        from nld.integrators import dopri5, no_events, no_on_event
+        from nld.integrators import dopri5
+        from nld.integrators.core import inlined
+from nld.integrators.dopri5 import dopri5_core
 
-        @njit(cache=True)
-        def rhs(t, y, p, z, dy):
-            dy[0] = -y[0]
+        if sys.argv[1] == "a":
+            @njit
+            def rhs(t, y, p, z, dy):
+                dy[0] = -y[0]
+        else:
+            @njit
+            def rhs(t, y, p, z, dy):
+                dy[0] = -2.0 * y[0] + 0.5 * t
 
-        @njit(cache=True)
-        def integrate(t_eval, rtol):
-            return dopri5(rhs, no_events, no_on_event, 0.0, np.array([1.0]), t_eval, False,
-                          np.zeros(0), np.zeros(0), rtol, np.array([1e-12]), 0.0, 0.0,
-                          10000, 0, 1)
-
-        if __name__ == "__main__":
-            out = integrate(np.linspace(0.0, 1.0, 3), 1e-8)
-            assert out[0] == 0
-            print(sum(integrate.stats.cache_hits.values()))
+        out = dopri5(rhs, None, None, 0.0, np.array([1.0]), np.linspace(0.0, 1.0, 3), False,
+                     np.zeros(0), np.zeros(0), 1e-8, np.array([1e-12]), 0.0, 0.0, 10000, 0, 1)
+        assert out.status == 0
+        print(sum(dopri5_core.stats.cache_hits.values()), sum(dopri5_core.stats.cache_misses.values()))
     """))
     env = dict(os.environ)
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env["PYTHONPATH"] = os.pathsep.join([root, env.get("PYTHONPATH", "")])
-    hits = []
-    for _ in range(2):
-        r = subprocess.run([sys.executable, "model_mod.py"], cwd=tmp_path, env=env,
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba-cache")
+    got = []
+    for which in ("a", "b"):
+        r = subprocess.run([sys.executable, "model_mod.py", which], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr
-        hits.append(int(r.stdout.strip().splitlines()[-1]))
-    assert hits == [0, 1]
+        got.append(tuple(int(v) for v in r.stdout.split()[-2:]))
+    assert got == [(0, 1), (1, 0)]

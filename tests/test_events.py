@@ -104,7 +104,6 @@ def test_system_refuses_bad_event_samples_and_a_wrapper_without_it():
     with pytest.raises(InputError, match="event_samples = -2"):
         ContinuousSystem(unit_rhs, [0.0], event_samples=-2)
 
-    @njit
     def old_solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
                   max_log):
         return dopri5(unit_rhs, cubic_events, count_on_event, t0, y0, t_eval, land, p, z, rtol,

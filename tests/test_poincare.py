@@ -51,7 +51,6 @@ def _osc_rhs(t, y, p, z, dy):
     dy[1] = -2.0 * p[0] * p[1] * y[1] - p[1] * p[1] * y[0] + math.cos(p[2] * t)
 
 
-@njit(cache=True)
 def _osc_solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log):
     return dopri5(_osc_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
                   hmax, max_steps, n_events, max_log)

@@ -6,30 +6,32 @@
 * ``scipy:RK45``, ``scipy:DOP853``, ``scipy:Radau``, ``scipy:LSODA``  scipy.integrate.solve_ivp
   on the same kernel, event to event (a reference, slow: Python calls per step)
 
-All return ``(status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)`` with the dopri5
-statuses; see docs/integrators.md.
+All return a :class:`Solution` (a named tuple: ``status, t, Y, n_out, stats, ev_t, ev_k, ev_dir,
+n_ev, Z``) with the dopri5 statuses; see docs/integrator.md. The native methods are compiled once
+per machine for first-class function arguments (nld.integrators.core); their step-size control,
+initial step, output writing and statuses are nld.integrators.core's.
 """
 
-from .dopri5 import (
+from .core import (
     MAX_STEPS,
     NON_FINITE,
     STEP_UNDERFLOW,
     STOPPED,
     SUCCESS,
-    dopri5,
-    dopri5_fixed,
+    Solution,
+    native,
     no_events,
     no_on_event,
-    status_message,
 )
+from .dopri5 import dopri5, dopri5_fixed, status_message
 from .dop853 import STIFF, dop853, dop853_fixed
 from .events import EVENT_SAMPLES, MAX_EVENT_SAMPLES, check_event_samples
 from .rosenbrock import SINGULAR, rodas, rodas_fixed
 
 # The one registry of the native methods: name -> (module in nld.integrators, integrator function,
-# name of the kernel's generated wrapper). The code generator writes one disk-cached wrapper per
-# entry (nld.kernel.codegen), systems and simulate pick the wrapper by name; an integrator is added
-# here and in its own file (docs/architecture.md, "Add an integrator").
+# name of the kernel's solve function). The code generator binds one solve function per entry to
+# the kernel's functions (nld.kernel.codegen, ``bind``); systems and simulate pick it by name; an
+# integrator is added here and in its own file (docs/architecture.md, "Add an integrator").
 NATIVE = {
     "dopri5": ("dopri5", "dopri5", "solve"),
     "dop853": ("dop853", "dop853", "solve_dop853"),
@@ -45,6 +47,23 @@ def native_integrator(method: str):
     return getattr(importlib.import_module(f"{__name__}.{module}"), function)
 
 
+def bind(method: str, rhs, events=None, on_event=None):
+    """``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+    event_samples=EVENT_SAMPLES)``: the native ``method`` with these functions (a kernel's
+    ``solve``, ``solve_dop853``, ``solve_rodas``; a user system's solver). Nothing is compiled
+    here: the integrator is compiled once per machine, the functions on the first call."""
+    integrator = native_integrator(method)
+
+    def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
+              event_samples=EVENT_SAMPLES):
+        return integrator(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
+                          hmax, max_steps, n_events, max_log, event_samples)
+
+    solve.method = method
+    solve.functions = (rhs, events, on_event)
+    return solve
+
+
 def kernel_solver(kernel_module, method: str):
     """A compiled kernel's generated wrapper of a native method (``solve``, ``solve_dop853``...)."""
     return getattr(kernel_module, NATIVE[method][2])
@@ -54,6 +73,9 @@ METHODS = NATIVE_METHODS + tuple(f"scipy:{m}" for m in SCIPY_METHODS)
 STATS_NAMES = ("steps", "accepted", "rejected", "rhs", "events", "jac", "lu")
 
 __all__ = [
+    "Solution",
+    "native",
+    "bind",
     "dopri5",
     "dopri5_fixed",
     "dop853",
@@ -146,3 +168,15 @@ def method_status_message(method: str, status, t_reached, stats) -> str:
         return (f"{method}: the iteration matrix I/(h*gamma) - J was singular {5} times in a row at "
                 f"t = {t:.9g} s (check the model for a singular mass matrix or NaN Jacobian entries)")
     return f"{method}: unknown integrator status {status} at t = {t:.9g} s"
+
+
+def _drop_stale_caches():
+    from .core import drop_stale_caches
+    from .dop853 import dop853_core
+    from .dopri5 import dopri5_core
+    from .rosenbrock import rodas_core
+    from .tangent import dopri5_tangent_core
+    return drop_stale_caches([dopri5_core, dop853_core, rodas_core, dopri5_tangent_core])
+
+
+_drop_stale_caches()

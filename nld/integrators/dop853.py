@@ -25,13 +25,11 @@ Events are located by :mod:`nld.integrators.events` (shared by every integrator:
 samples of the dense output, Illinois, earliest root wins, step retaken to land on it). The
 7th-order dense output costs three more rhs evaluations, so the interior samples are first
 screened on the cubic Hermite interpolant of the step's ends (``_hermite_screen``) and the dense
-output is formed only for a step the screen, the step's end or an output time flags. This
-module also holds the output helpers shared with :mod:`nld.integrators.rosenbrock`
-(``write_outputs``, ``initial_step``).
+output is formed only for a step the screen, the step's end or an output time flags.
 
-Caching: as for dopri5, ``dop853`` and the helpers that take user functions are
-``inline='always'``; call ``dop853`` from an ``@njit(cache=True)`` wrapper whose
-rhs/events/on_event are module globals (the generated kernel's ``solve_dop853``).
+Compilation and step control: as for dopri5, ``dop853_core`` is compiled once for first-class
+function arguments and ``dop853`` is its Python front; the step-control core (initial step,
+landing, PI control, output writing, statuses) is nld.integrators.core's.
 """
 
 import math
@@ -39,7 +37,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, rejected_shrink, rweight
+from .core import (all_finite, changed, check_arguments, finish, front, initial_rows,
+                   initial_step, new_outputs, next_step, nonfinite_gives_up, pi_next_step,
+                   rejected_shrink, rweight, save_state, step_cap, too_small, usable_step,
+                   write_outputs)
+from .dopri5 import ROOT_RTOL
 from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
                      set_unknown_signs)
 
@@ -223,7 +225,7 @@ SAFE = 0.9
 FAC1 = 0.333     # hnew/h >= FAC1
 FAC2 = 6.0       # hnew/h <= FAC2
 FACC1 = 1.0 / FAC1
-# After a mode change a rejected step shrinks faster: nld.integrators.dopri5.rejected_shrink
+# After a mode change a rejected step shrinks faster: nld.integrators.core.rejected_shrink
 FACC2 = 1.0 / FAC2
 BETA = 0.0       # dop853.f default: no PI term
 EXPO1 = 1.0 / 8.0 - BETA * 0.2
@@ -235,58 +237,6 @@ HLAMB_STIFF = 6.1   # |h| * (Lipschitz estimate along the last stage) above this
 N_STIFF = 15        # this many stiff steps (not separated by 6 non-stiff ones) stop the run
 
 MAX_RELOCATE = 8    # event location: retakes of a step to land on a root (see dop853)
-
-
-# ================================================================ shared event / output helpers
-@njit(cache=True, inline='always')
-def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
-    """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output (step length h).
-    Returns the next output index."""
-    n_eval = t_eval.shape[0]
-    n = y_hi.shape[0]
-    while i_out < n_eval and t_eval[i_out] <= t_hi:
-        te = t_eval[i_out]
-        if te == t_hi:
-            for j in range(n):
-                Y[i_out, j] = y_hi[j]
-        else:
-            interp((te - t) / h, cont, Y[i_out])
-        Zo[i_out, :] = z
-        i_out += 1
-    return i_out
-
-
-@njit(cache=True, inline='always')
-def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
-    """Hairer's HINIT for a method of the given order (one extra rhs evaluation)."""
-    n = y.shape[0]
-    dnf = 0.0
-    dny = 0.0
-    for i in range(n):
-        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
-        dnf += (f0[i] / sk) ** 2
-        dny += (y[i] / sk) ** 2
-    if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf) or not math.isfinite(dny):
-        h = 1.0e-6
-    else:
-        h = math.sqrt(dny / dnf) * 0.01
-    h = min(h, hmax, span)
-    for i in range(n):
-        y1[i] = y[i] + h * f0[i]
-    rhs(t0 + h, y1, p, z, f1)
-    der2 = 0.0
-    for i in range(n):
-        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
-        der2 += ((f1[i] - f0[i]) / sk) ** 2
-    der2 = math.sqrt(der2) / h
-    der12 = max(abs(der2), math.sqrt(dnf))
-    if not math.isfinite(der12):
-        h1 = abs(h) * 1.0e-3
-    elif der12 <= 1e-15:
-        h1 = max(1.0e-6, abs(h) * 1.0e-3)
-    else:
-        h1 = (0.01 / der12) ** (1.0 / order)
-    return min(100.0 * abs(h), h1, hmax, span)
 
 
 # ================================================================ DOP853 kernels
@@ -414,14 +364,6 @@ def _hermite_screen(events, n_samples, t, h, y, ynew, K, yint, gtmp, sgn, p, z):
 
 
 @njit(cache=True)
-def _all_finite(a):
-    for v in a.ravel():
-        if not math.isfinite(v):
-            return False
-    return True
-
-
-@njit(cache=True)
 def interp(theta, cont, out):
     """Dense output y(t + theta h) from cont = [y, F0..F6] (Hairer's CONTD8)."""
     th1 = 1.0 - theta
@@ -431,12 +373,14 @@ def interp(theta, cont, out):
                 cont[6, i] + theta * cont[7, i]))))))
 
 
-@njit(cache=True, inline='always')
-def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-           max_steps, n_events, max_log, event_samples=EVENT_SAMPLES):
-    """Adaptive DOP853 from t0 to t_eval[-1]; same arguments, results and statuses as dopri5.
+@njit(cache=True)
+def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+                max_steps, n_events, max_log, event_samples):
+    """Adaptive DOP853 from t0 to t_eval[-1]; same arguments, results and statuses as dopri5
+    (the jitted core; call ``dop853``).
 
-    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
+    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z), as the fields of
+    nld.integrators.core.Solution
 
     status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
     underflow, -3 non-finite values, -6 the problem became stiff (Hairer's stiffness detection:
@@ -449,21 +393,8 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
     ne = n_events
-
-    for i in range(1, n_eval):
-        if t_eval[i] < t_eval[i - 1]:
-            raise ValueError("t_eval must be sorted ascending")
-    if n_eval > 0 and t_eval[0] < t0:
-        raise ValueError("t_eval must lie within [t0, t_end]")
-    if atol.shape[0] != n and atol.shape[0] != 2 * n:
-        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
-
-    Y = np.full((n_eval, n), np.nan)
-    Zo = np.zeros((n_eval, z.shape[0]))
-    stats = np.zeros(5, dtype=np.int64)
-    ev_t = np.empty(max_log, dtype=np.float64)      # only the first n_ev entries are written
-    ev_k = np.empty(max_log, dtype=np.int64)
-    ev_dir = np.empty(max_log, dtype=np.int64)
+    check_arguments(t0, t_eval, atol, n)
+    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(n_eval, n, z.shape[0], max_log, 5)
     n_ev = 0
 
     y = np.empty(n)
@@ -485,12 +416,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     for i in range(n):
         y[i] = y0[i]
     t = t0
-    i_out = 0
-    while i_out < n_eval and t_eval[i_out] <= t0:
-        for j in range(n):
-            Y[i_out, j] = y0[j]
-        Zo[i_out, :] = z
-        i_out += 1
+    i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
     if i_out >= n_eval:
         return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
     t_end = t_eval[n_eval - 1]
@@ -507,16 +433,13 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         set_unknown_signs(gcur, sgn)
 
     span = t_end - t0
-    hcap = span
-    if hmax > 0.0 and hmax < hcap:
-        hcap = hmax
+    hcap = step_cap(span, hmax)
     if h0 > 0.0:
         h = min(h0, hcap)
     else:
         h = initial_step(rhs, t0, y, K[0], p, z, atol, rtol, hcap, span, ytmp, K[1], 8.0)
         nfev += 1
-    if not (h > 0.0) or not math.isfinite(h):
-        h = 1e-6 * span
+    h = usable_step(h, span)
 
     facold = FACOLD0
     reject = False
@@ -537,16 +460,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         if iasti >= N_STIFF:
             status = STIFF
             break
-        target = t_eval[i_out] if land else t_end
-        if h > hcap:
-            h = hcap
-        if h < 4.0 * EPS * abs(t):
-            h = 4.0 * EPS * abs(t)
-        if t + 1.01 * h >= target:
-            t_new = target
-        else:
-            t_new = t + h
-        h = t_new - t
+        t_new, h = next_step(t, h, hcap, t_eval[i_out] if land else t_end)
         n_steps += 1
 
         _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z)
@@ -558,7 +472,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             n_nonfinite += 1
             reject = True
             h = 0.5 * h
-            if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+            if nonfinite_gives_up(h, t, n_nonfinite):
                 status = -3
                 break
             continue
@@ -569,16 +483,12 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             h = h / rejected_shrink(err, fac11, FACC1, new_branch)
             reject = True
             n_rej += 1
-            if h < 16.0 * EPS * abs(t) or h < 1e-300:
+            if too_small(h, t):
                 status = -2
                 break
             continue
 
-        fac = fac11 / facold ** BETA
-        fac = max(FACC2, min(FACC1, fac / SAFE))
-        hnew = h / fac
-        if reject:
-            hnew = min(hnew, h)
+        hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
         reject = False
         after_event = False
         new_branch = False
@@ -604,7 +514,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                     events, event_samples, t, h, y, ynew, K, yint, gtmp, sgn, p, z)):
                 _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
                 nfev += 3
-                if not _all_finite(cont):
+                if not all_finite(cont):
                     # the extra stages of the dense output met a force the 12 stages of the
                     # step did not see (a contact inside the step): the step is not trusted
                     n_acc -= 1
@@ -622,7 +532,7 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                 if t_eval[i_out] < t_new and not dense_done:
                     _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z)
                     nfev += 3
-                    if not _all_finite(cont):
+                    if not all_finite(cont):
                         # the extra stages of the dense output met a force the 12 stages of the
                         # step did not see (a contact inside the step): the step is not trusted
                         n_acc -= 1
@@ -703,17 +613,13 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             h = hnew
             continue
 
-        for i in range(z.shape[0]):
-            zsave[i] = z[i]
+        save_state(z, zsave)
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
         # z may have changed: FSAL is invalid, recompute K[0] and g at the event point
         after_event = True
         # a mode change (on_event changed z) starts a new branch of the vector field
-        new_branch = False
-        for i in range(z.shape[0]):
-            if z[i] != zsave[i]:
-                new_branch = True
+        new_branch = changed(z, zsave)
         rhs(t, y, p, z, K[0])
         nfev += 1
         events(t, y, p, z, gcur)
@@ -723,12 +629,11 @@ def dop853(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             break
         h = hnew
 
-    stats[0] = n_steps
-    stats[1] = n_acc
-    stats[2] = n_rej
-    stats[3] = nfev
-    stats[4] = n_ev
+    finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+
+
+dop853 = front(dop853_core)
 
 
 @njit(cache=True)

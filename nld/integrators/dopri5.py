@@ -5,7 +5,8 @@ and the automatic initial step follow Hairer's DOPRI5 (Hairer, Norsett & Wanner,
 Ordinary Differential Equations I*, 2nd ed., Springer 1993, sec. II.4-II.6 and the Fortran
 code ``dopri5.f``). See ``docs/integrator.md``.
 
-Everything with ``@njit`` takes the user's functions as arguments (numba dispatchers):
+The integrator takes the user's functions as first-class function arguments
+(``nld.integrators.core``: compiled once per machine, whatever the functions):
 
 * ``rhs(t, y, p, z, dy)``            writes dy/dt into ``dy`` in place.
 * ``events(t, y, p, z, g)``          writes the ``n_events`` event functions into ``g``.
@@ -15,12 +16,10 @@ Everything with ``@njit`` takes the user's functions as arguments (numba dispatc
 ``p`` (parameters) is read only; ``z`` (discrete state) is modified only by ``on_event``, in
 place, so the caller sees its final value.
 
-Caching: numba names the type of a jitted-function argument after the function's memory
-address, so a ``dopri5`` specialization compiled by a call *from Python* is never found in the
-disk cache by a later process (each new process recompiles, ~5 s). ``dopri5`` and its helpers
-that take the user's functions are therefore ``inline='always'``: call ``dopri5`` from a
-``@njit(cache=True)`` wrapper in which rhs/events/on_event are module globals, and the wrapper
-(with dopri5 inlined) is loaded from the disk cache.
+Compilation: ``dopri5_core`` is compiled once, for first-class function arguments, and cached on
+disk; ``dopri5`` (Python) converts numba functions to them (``nld.integrators.core.front``). The
+step-size control, initial step, output writing and statuses are nld.integrators.core's; this
+file holds the tableau, the stages, the error estimate, the dense output and the loop.
 """
 
 import math
@@ -28,12 +27,14 @@ import math
 import numpy as np
 from numba import njit
 
-# ---------------------------------------------------------------- statuses
-SUCCESS = 0          # reached t_end
-STOPPED = 1          # on_event returned 1
-MAX_STEPS = -1       # max_steps exceeded
-STEP_UNDERFLOW = -2  # step size underflow after a rejection
-NON_FINITE = -3      # non-finite values that halving the step could not cure
+from .core import (BETA, EPS, FACC1, FACC1_EVENT, FACC2, FACMAX, FACMIN, FACOLD0,  # noqa: F401
+                   MAX_NONFINITE, MAX_STEPS, NON_FINITE, SAFE, STEP_UNDERFLOW, STOPPED, SUCCESS,
+                   EXPO_EVENT, changed, check_arguments, finish, front, initial_rows, initial_step,
+                   new_outputs, next_step, no_events, no_on_event, nonfinite_gives_up,
+                   pi_next_step, rejected_shrink, rweight, save_state, step_cap, too_small,
+                   usable_step, write_outputs)
+from .events import (EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
+                     fire_events, locate_earliest, set_unknown_signs)
 
 # ---------------------------------------------------------------- Hairer's DOPRI5 coefficients
 C2 = 1.0 / 5.0
@@ -78,60 +79,11 @@ D5 = 701980252875.0 / 199316789632.0
 D6 = -1453857185.0 / 822651844.0
 D7 = 69997945.0 / 29380423.0
 
-# ---------------------------------------------------------------- step-size control (Hairer)
-BETA = 0.04
-EXPO1 = 0.2 - 0.75 * BETA
-SAFE = 0.9
-FACMIN = 0.2    # hnew/h >= FACMIN
-FACMAX = 10.0   # hnew/h <= FACMAX
-FACC1 = 1.0 / FACMIN
-# After an event that changed the mode (z: the first step on a new branch of the vector field)
-# a rejected step shrinks by up to FACC1_EVENT (not FACC1), and as if its error were O(h^4)
-# (EXPO_EVENT; never less than the usual shrink): the step starts at the previous branch's size,
-# and at a contact onset the solution is not smooth (a force like (t - t*)^1.5), so err^(1/(q+1))
-# under-shrinks and the first step took 6-12 rejections (benchmarks/results/hybrid.md, stop 21).
-# Only mode changes: a user rhs that branches on the sign of a state (tests/test_tangent.py's
-# piecewise-linear oscillator) lands on either side of its switch, and with the larger shrink
-# its first step became short enough for its dense output to show spurious sign changes at
-# round-off level (two extra events at one instant).
-FACC1_EVENT = 1.0e3
-EXPO_EVENT = 1.0 / 4.0
-FACC2 = 1.0 / FACMAX
-FACOLD0 = 1.0e-4
-MAX_NONFINITE = 50
+# ---------------------------------------------------------------- step-size control
+EXPO1 = 0.2 - 0.75 * BETA      # err^EXPO1: the PI controller's exponent for order 5 (Hairer)
 
 
 @njit(cache=True, inline='always')
-def rejected_shrink(err, fac11, facc1, new_branch):
-    """The factor h_old / h_new after a rejected step (err > 1): Hairer's min(facc1, fac11 / SAFE)
-    (fac11 = err^EXPO1 of the method), and on the first step after a mode change at least
-    min(FACC1_EVENT, err^EXPO_EVENT / SAFE) (the comment above). Used by dopri5, dop853 and the
-    tangent DOPRI5."""
-    shrink = min(facc1, fac11 / SAFE)
-    if new_branch:
-        shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
-    return shrink
-
-from .events import (EPS, EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
-                     fire_events, locate_earliest, set_unknown_signs)
-
-
-# ---------------------------------------------------------------- kernels
-@njit(cache=True, inline='always')
-def rweight(atol, n, i):
-    """Weight of rtol for state i: ``atol[n + i]`` when ``atol`` has 2n entries, else 1.
-
-    The error scale of state i is ``atol[i] + rtol * rweight * max(|y_i|, |ynew_i|)``. A weight
-    of 0 makes the control of that state purely absolute: used for angles that wind (a relative
-    joint angle grows by 2 pi per crank revolution, so a relative tolerance would loosen as the
-    run goes on) and for positions whose size says nothing about the accuracy needed (a journal
-    position of 0.1 m next to a clearance of 0.1 mm). docs/integrator.md, "Tolerances"."""
-    if atol.shape[0] == 2 * n:
-        return atol[n + i]
-    return 1.0
-
-
-@njit(cache=False, inline='always')
 def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
     """One DOPRI5 step from (t, y) with k1 = f(t, y): fills k2..k7, ynew; k7 = f(t_new, ynew)."""
     n = y.shape[0]
@@ -203,49 +155,17 @@ def interp(theta, cont, out):
             cont[3, i] + th1 * cont[4, i])))
 
 
-@njit(cache=False, inline='always')
-def _initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1):
-    """Hairer's HINIT for a 5th-order method (one extra rhs evaluation)."""
-    n = y.shape[0]
-    dnf = 0.0
-    dny = 0.0
-    for i in range(n):
-        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
-        dnf += (f0[i] / sk) ** 2
-        dny += (y[i] / sk) ** 2
-    if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf) or not math.isfinite(dny):
-        h = 1.0e-6
-    else:
-        h = math.sqrt(dny / dnf) * 0.01
-    h = min(h, hmax, span)
-    for i in range(n):
-        y1[i] = y[i] + h * f0[i]
-    rhs(t0 + h, y1, p, z, f1)
-    der2 = 0.0
-    for i in range(n):
-        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
-        der2 += ((f1[i] - f0[i]) / sk) ** 2
-    der2 = math.sqrt(der2) / h
-    der12 = max(abs(der2), math.sqrt(dnf))
-    if not math.isfinite(der12):
-        h1 = abs(h) * 1.0e-3
-    elif der12 <= 1e-15:
-        h1 = max(1.0e-6, abs(h) * 1.0e-3)
-    else:
-        h1 = (0.01 / der12) ** (1.0 / 5.0)
-    return min(100.0 * abs(h), h1, hmax, span)
-
-
-@njit(cache=False, inline='always')
-def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-           max_steps, n_events, max_log, event_samples=EVENT_SAMPLES):
-    """Adaptive DOPRI5 from t0 to t_eval[-1].
+@njit(cache=True)
+def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+                max_steps, n_events, max_log, event_samples):
+    """Adaptive DOPRI5 from t0 to t_eval[-1] (the jitted core; call ``dopri5``).
 
     event_samples: interior points of every accepted step's dense output at which the event
     functions are also evaluated, so that sign changes between the step's ends are located
     (nld.integrators.events; 0: the ends only).
 
-    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
+    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z), as the fields of
+    nld.integrators.core.Solution
 
     Z[i] is the discrete state z in force at output row i (for observing hysteresis laws).
 
@@ -256,21 +176,8 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
     ne = n_events
-
-    for i in range(1, n_eval):
-        if t_eval[i] < t_eval[i - 1]:
-            raise ValueError("t_eval must be sorted ascending")
-    if n_eval > 0 and t_eval[0] < t0:
-        raise ValueError("t_eval must lie within [t0, t_end]")
-    if atol.shape[0] != n and atol.shape[0] != 2 * n:
-        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
-
-    Y = np.full((n_eval, n), np.nan)
-    Zo = np.zeros((n_eval, z.shape[0]))     # discrete state in force at each output row
-    stats = np.zeros(5, dtype=np.int64)
-    ev_t = np.empty(max_log, dtype=np.float64)      # only the first n_ev entries are written
-    ev_k = np.empty(max_log, dtype=np.int64)
-    ev_dir = np.empty(max_log, dtype=np.int64)
+    check_arguments(t0, t_eval, atol, n)
+    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(n_eval, n, z.shape[0], max_log, 5)
     n_ev = 0
 
     # work arrays, allocated once
@@ -299,12 +206,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
     for i in range(n):
         y[i] = y0[i]
     t = t0
-    i_out = 0
-    while i_out < n_eval and t_eval[i_out] <= t0:
-        for j in range(n):
-            Y[i_out, j] = y0[j]
-        Zo[i_out, :] = z
-        i_out += 1
+    i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
     if i_out >= n_eval:
         return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
     t_end = t_eval[n_eval - 1]
@@ -321,16 +223,13 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         set_unknown_signs(gcur, sgn)
 
     span = t_end - t0
-    hcap = span
-    if hmax > 0.0 and hmax < hcap:
-        hcap = hmax
+    hcap = step_cap(span, hmax)
     if h0 > 0.0:
         h = min(h0, hcap)
     else:
-        h = _initial_step(rhs, t0, y, k1, p, z, atol, rtol, hcap, span, ytmp, k2)
+        h = initial_step(rhs, t0, y, k1, p, z, atol, rtol, hcap, span, ytmp, k2, 5.0)
         nfev += 1
-    if not (h > 0.0) or not math.isfinite(h):
-        h = 1e-6 * span
+    h = usable_step(h, span)
 
     facold = FACOLD0
     reject = False
@@ -345,16 +244,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
         if n_steps >= max_steps:
             status = -1
             break
-        target = t_eval[i_out] if land else t_end
-        if h > hcap:
-            h = hcap
-        if h < 4.0 * EPS * abs(t):      # never a step that does not move t
-            h = 4.0 * EPS * abs(t)
-        if t + 1.01 * h >= target:      # land on the target, no sliver step (as in DOPRI5)
-            t_new = target
-        else:
-            t_new = t + h
-        h = t_new - t
+        t_new, h = next_step(t, h, hcap, t_eval[i_out] if land else t_end)
         n_steps += 1
 
         _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z)
@@ -367,7 +257,7 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             n_nonfinite += 1
             reject = True
             h = 0.5 * h
-            if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+            if nonfinite_gives_up(h, t, n_nonfinite):
                 status = -3
                 break
             continue
@@ -379,17 +269,13 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             h = h / rejected_shrink(err, fac11, FACC1, new_branch)
             reject = True
             n_rej += 1
-            if h < 16.0 * EPS * abs(t) or h < 1e-300:
+            if too_small(h, t):
                 status = -2
                 break
             continue
 
         # accepted: PI (Lund-stabilized) proposal for the next step
-        fac = fac11 / facold ** BETA
-        fac = max(FACC2, min(FACC1, fac / SAFE))
-        hnew = h / fac
-        if reject:
-            hnew = min(hnew, h)
+        hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
         reject = False
         new_branch = False
         facold = max(err, FACOLD0)
@@ -411,18 +297,10 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
 
         if not have_event:
             # dense output for t_eval in (t, t_new]
-            while i_out < n_eval and t_eval[i_out] <= t_new:
-                te = t_eval[i_out]
-                if te == t_new:
-                    for j in range(n):
-                        Y[i_out, j] = ynew[j]
-                else:
-                    if not dense_done:
-                        dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
-                        dense_done = True
-                    interp((te - t) / h, cont, Y[i_out])
-                Zo[i_out, :] = z
-                i_out += 1
+            if i_out < n_eval and t_eval[i_out] <= t_new:
+                if t_eval[i_out] < t_new and not dense_done:
+                    dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
+                i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_new
             y, ynew = ynew, y
             k1, k7 = k7, k1     # FSAL
@@ -455,29 +333,17 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
                         ynew[j] = yint[j]
             else:
                 h_d = h
-            while i_out < n_eval and t_eval[i_out] <= t_star:
-                te = t_eval[i_out]
-                if te == t_star:
-                    for j in range(n):
-                        Y[i_out, j] = ynew[j]
-                else:
-                    interp((te - t) / h_d, cont, Y[i_out])
-                Zo[i_out, :] = z
-                i_out += 1
+            i_out = write_outputs(interp, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_star
             y, ynew = ynew, y
 
         # fire every crossing whose root is within tol of t_star
-        for i in range(z.shape[0]):
-            zsave[i] = z[i]
+        save_state(z, zsave)
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
         # z may have changed: FSAL is invalid, recompute k1 and g at the event point
         # a mode change (on_event changed z) starts a new branch of the vector field
-        new_branch = False
-        for i in range(z.shape[0]):
-            if z[i] != zsave[i]:
-                new_branch = True
+        new_branch = changed(z, zsave)
         rhs(t, y, p, z, k1)
         nfev += 1
         events(t, y, p, z, gcur)
@@ -487,12 +353,11 @@ def dopri5(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hm
             break
         h = hnew
 
-    stats[0] = n_steps
-    stats[1] = n_acc
-    stats[2] = n_rej
-    stats[3] = nfev
-    stats[4] = n_ev
+    finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+
+
+dopri5 = front(dopri5_core)
 
 
 @njit(cache=False)
@@ -517,18 +382,6 @@ def dopri5_fixed(rhs, t0, y0, h, n_steps, p, z):
         y, ynew = ynew, y
         k1, k7 = k7, k1
     return y
-
-
-@njit(cache=True)
-def no_events(t, y, p, z, g):
-    """Placeholder ``events`` for n_events = 0 (never called)."""
-    pass
-
-
-@njit(cache=True)
-def no_on_event(k, direction, t, y, p, z):
-    """Placeholder ``on_event`` that never stops."""
-    return 0
 
 
 def status_message(status, t_reached, stats):

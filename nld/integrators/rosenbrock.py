@@ -34,9 +34,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .dop853 import initial_step, write_outputs
+from .core import (EPS, check_arguments, finish, front, initial_rows, initial_step, new_outputs,
+                   next_step, no_events, nonfinite_gives_up, rweight, step_cap, too_small,
+                   usable_step, write_outputs)
 from .events import EVENT_SAMPLES, find_crossings, fire_events, locate_earliest, set_unknown_signs
-from .dopri5 import EPS, MAX_NONFINITE, ROOT_RTOL, no_events, rweight
+from .dopri5 import ROOT_RTOL
 
 SINGULAR = -5          # iteration matrix repeatedly singular
 MAX_SINGULAR = 5
@@ -381,12 +383,14 @@ def interp(theta, cont, out):
         out[i] = cont[0, i] * s1 + theta * (cont[1, i] + s1 * (cont[2, i] + theta * cont[3, i]))
 
 
-@njit(cache=True, inline='always')
-def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
-          max_steps, n_events, max_log, event_samples=EVENT_SAMPLES):
-    """Adaptive Rodas4 from t0 to t_eval[-1]; same arguments and results as dopri5.
+@njit(cache=True)
+def rodas_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+               max_steps, n_events, max_log, event_samples):
+    """Adaptive Rodas4 from t0 to t_eval[-1]; same arguments and results as dopri5 (the jitted
+    core; call ``rodas``).
 
-    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z)
+    returns (status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Z), as the fields of
+    nld.integrators.core.Solution
 
     status: 0 reached t_end, 1 stopped by on_event, -1 max_steps exceeded, -2 step size
     underflow, -3 non-finite values, -5 iteration matrix repeatedly singular.
@@ -397,21 +401,8 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
     ne = n_events
-
-    for i in range(1, n_eval):
-        if t_eval[i] < t_eval[i - 1]:
-            raise ValueError("t_eval must be sorted ascending")
-    if n_eval > 0 and t_eval[0] < t0:
-        raise ValueError("t_eval must lie within [t0, t_end]")
-    if atol.shape[0] != n and atol.shape[0] != 2 * n:
-        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
-
-    Y = np.full((n_eval, n), np.nan)
-    Zo = np.zeros((n_eval, z.shape[0]))
-    stats = np.zeros(7, dtype=np.int64)
-    ev_t = np.empty(max_log, dtype=np.float64)      # only the first n_ev entries are written
-    ev_k = np.empty(max_log, dtype=np.int64)
-    ev_dir = np.empty(max_log, dtype=np.int64)
+    check_arguments(t0, t_eval, atol, n)
+    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(n_eval, n, z.shape[0], max_log, 7)
     n_ev = 0
 
     y = np.empty(n)
@@ -440,12 +431,7 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
         y[i] = y0[i]
         typ[i] = atol[i] / rtol
     t = t0
-    i_out = 0
-    while i_out < n_eval and t_eval[i_out] <= t0:
-        for j in range(n):
-            Y[i_out, j] = y0[j]
-        Zo[i_out, :] = z
-        i_out += 1
+    i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
     if i_out >= n_eval:
         return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
     t_end = t_eval[n_eval - 1]
@@ -464,16 +450,13 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
         set_unknown_signs(gcur, sgn)
 
     span = t_end - t0
-    hcap = span
-    if hmax > 0.0 and hmax < hcap:
-        hcap = hmax
+    hcap = step_cap(span, hmax)
     if h0 > 0.0:
         h = min(h0, hcap)
     else:
         h = initial_step(rhs, t0, y, f0, p, z, atol, rtol, hcap, span, ytmp, dy, 4.0)
         nfev += 1
-    if not (h > 0.0) or not math.isfinite(h):
-        h = 1e-6 * span
+    h = usable_step(h, span)
 
     reject = False
     need_f0 = False      # f0 = f(t, y) is current
@@ -491,16 +474,7 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
         if n_steps >= max_steps:
             status = -1
             break
-        target = t_eval[i_out] if land else t_end
-        if h > hcap:
-            h = hcap
-        if h < 4.0 * EPS * abs(t):
-            h = 4.0 * EPS * abs(t)
-        if t + 1.01 * h >= target:
-            t_new = target
-        else:
-            t_new = t + h
-        h = t_new - t
+        t_new, h = next_step(t, h, hcap, t_eval[i_out] if land else t_end)
 
         if need_jac:
             if need_f0:
@@ -544,7 +518,7 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
             n_nonfinite += 1
             reject = True
             h = 0.5 * h
-            if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+            if nonfinite_gives_up(h, t, n_nonfinite):
                 status = -3
                 break
             continue
@@ -556,7 +530,7 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
             h = hnew
             reject = True
             n_rej += 1
-            if h < 16.0 * EPS * abs(t) or h < 1e-300:
+            if too_small(h, t):
                 status = -2
                 break
             continue
@@ -664,14 +638,13 @@ def rodas(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
             break
         h = hnew
 
-    stats[0] = n_steps
-    stats[1] = n_acc
-    stats[2] = n_rej
-    stats[3] = nfev
-    stats[4] = n_ev
+    finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
     stats[5] = njac
     stats[6] = nlu
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+
+
+rodas = front(rodas_core)
 
 
 @njit(cache=True)

@@ -41,10 +41,14 @@ import math
 import numpy as np
 from numba import njit
 
+from .core import (BETA, FACC1, FACC2, FACOLD0, changed, finish, first_guess, next_step,
+                   nonfinite_gives_up, pi_next_step, rejected_shrink, rweight, save_state,
+                   step_cap, too_small, usable_step)
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
-                     A71, A73, A74, A75, A76, BETA, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EPS,
-                     EXPO1, FACC1, FACC2, FACOLD0, MAX_NONFINITE, ROOT_RTOL, SAFE, dense_coeffs,
-                     interp, rejected_shrink, rweight)
+                     A71, A73, A74, A75, A76, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EXPO1,
+                     ROOT_RTOL, dense_coeffs, interp)
+from .core import (EVENTS_SIG, JVP_SIG, ON_EVENT_JVP_SIG, ON_EVENT_SIG, RHS_SIG, native,
+                   no_events, no_on_event, state_vector, vector)
 from .events import EVENT_SAMPLES, locate_earliest, set_unknown_signs
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
@@ -195,12 +199,13 @@ def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus,
             W[c, i] = wtmp[i] + (fminus[i] - fplus[i]) * dtau
 
 
-@njit(cache=False, inline='always')
-def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W, Wz,
-                   marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events, tangent_err,
-                   want_div, diag, logs, event_samples=EVENT_SAMPLES):
+@njit(cache=True)
+def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W,
+                        Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events,
+                        tangent_err, want_div, diag, logs, event_samples):
     """Integrate (y, W, Wz) from t0 through every time in ``marks`` (ascending, > t0),
-    re-orthonormalising the tangent vectors at each (module docstring).
+    re-orthonormalising the tangent vectors at each (module docstring). The jitted core, compiled
+    once for first-class function arguments (nld.integrators.core); call ``dopri5_tangent``.
 
     W (k, n): tangent vectors of y as rows; Wz (k, nz): their discrete-state parts; z: the
     discrete state. z, W, Wz, diag and logs (len(marks), k) are updated in place.
@@ -260,26 +265,12 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
         set_unknown_signs(gcur, sgn)
 
     span = t_end - t0
-    hcap = span
-    if hmax > 0.0 and hmax < hcap:
-        hcap = hmax
+    hcap = step_cap(span, hmax)
     if h0 > 0.0:
         h = min(h0, hcap)
     else:
-        # Hairer's initial step on the state
-        dnf = 0.0
-        dny = 0.0
-        for i in range(n):
-            sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
-            dnf += (KY[0, i] / sk) ** 2
-            dny += (y[i] / sk) ** 2
-        if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf):
-            h = 1.0e-6
-        else:
-            h = math.sqrt(dny / dnf) * 0.01
-        h = min(h, hcap)
-    if not (h > 0.0) or not math.isfinite(h):
-        h = 1e-6 * span
+        h = min(first_guess(y, KY[0], atol, rtol)[0], hcap)   # Hairer's first guess on the state
+    h = usable_step(h, span)
 
     facold = FACOLD0
     reject = False
@@ -301,16 +292,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             if n_steps >= max_steps:
                 status = -1
                 break
-            target = marks[i_mark]
-            if h > hcap:
-                h = hcap
-            if h < 4.0 * EPS * abs(t):
-                h = 4.0 * EPS * abs(t)
-            if t + 1.01 * h >= target:
-                t_new = target
-            else:
-                t_new = t + h
-            h = t_new - t
+            t_new, h = next_step(t, h, hcap, marks[i_mark])
             n_steps += 1
         else:
             t_new = t_star
@@ -386,7 +368,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                 n_nonfinite += 1
                 reject = True
                 h = 0.5 * h
-                if n_nonfinite >= MAX_NONFINITE or h < 16.0 * EPS * abs(t) or h < 1e-300:
+                if nonfinite_gives_up(h, t, n_nonfinite):
                     status = -3
                     break
                 continue
@@ -396,15 +378,11 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                 h = h / rejected_shrink(err, fac11, FACC1, new_branch)
                 reject = True
                 n_rej += 1
-                if h < 16.0 * EPS * abs(t) or h < 1e-300:
+                if too_small(h, t):
                     status = -2
                     break
                 continue
-            fac = fac11 / facold ** BETA
-            fac = max(FACC2, min(FACC1, fac / SAFE))
-            hnew = h / fac
-            if reject:
-                hnew = min(hnew, h)
+            hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
             reject = False
             new_branch = False
             facold = max(err, FACOLD0)
@@ -469,8 +447,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                     W[c, i] = Wnew[c, i]
 
         # ---------------------------------------------- fire the events, saltation
-        for i in range(nz):
-            zold[i] = z[i]
+        save_state(z, zold)
         stop = False
         n_fired = 0
         for q in range(ne):
@@ -503,10 +480,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
                        zdz, zzero)
         # restart: derivatives at the event point with the new discrete state; a mode change
         # (on_event changed z) starts a new branch of the vector field
-        new_branch = False
-        for i in range(nz):
-            if z[i] != zold[i]:
-                new_branch = True
+        new_branch = changed(z, zold)
         tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div,
                           trace_tmp, unit)
         nfev += 1
@@ -522,9 +496,66 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
             break
         h = hnew
 
-    stats[0] = n_steps
-    stats[1] = n_acc
-    stats[2] = n_rej
-    stats[3] = nfev
-    stats[4] = int(diag[DG_EVENTS])
+    finish(stats, n_steps, n_acc, n_rej, nfev, int(diag[DG_EVENTS]))
     return status, t, y, i_mark, stats, hnew
+
+
+@njit(cache=True)
+def no_events_jvp(t, y, p, z, g, td, yd, zd, gd):
+    """Placeholder ``events_jvp`` for a system without events (never called)."""
+    pass
+
+
+@njit(cache=True)
+def no_on_event_jvp(k, direction, t, y, p, z, td, yd, zd):
+    """Placeholder ``on_event_jvp`` for a system without events (never called)."""
+    return 0
+
+
+def _in_place(a, field: str) -> np.ndarray:
+    """A 2-d array the integrator updates in place: must be writable C-contiguous float64."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.ndim == 2 and a.flags.c_contiguous \
+            and a.flags.writeable:
+        return a
+    from nld.errors import InputError
+    raise InputError(f"{field}: must be a writable, C-contiguous 2-d float64 array (it is updated "
+                     f"in place); got {type(a).__name__} {getattr(a, 'dtype', '')} "
+                     f"{getattr(a, 'shape', '')}")
+
+
+def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W, Wz,
+                   marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events, tangent_err,
+                   want_div, diag, logs, event_samples=EVENT_SAMPLES):
+    """DOPRI5 with tangent vectors and saltation (``dopri5_tangent_core``; module docstring).
+
+    rhs, events, on_event as for dopri5 (events / on_event None: no events); rhs_jvp,
+    events_jvp (None: none), on_event_jvp their forward derivatives
+    (``jvp(t, y, p, z, out, t_d, y_d, z_d, out_d)``, ``on_event_jvp(k, direction, t, y, p, z,
+    t_d, y_d, z_d)``), numba functions converted here to first-class function arguments, so the
+    integrator is compiled once per machine. z, W, Wz, diag and logs are updated in place.
+    Returns (status, t_reached, y, n_marks_done, stats, h_next)."""
+    return dopri5_tangent_core(
+        native(rhs, RHS_SIG, "rhs"), native(rhs_jvp, JVP_SIG, "rhs_jvp"),
+        native(no_events if events is None else events, EVENTS_SIG, "events"),
+        native(no_events_jvp if events_jvp is None else events_jvp, JVP_SIG, "events_jvp"),
+        native(no_on_event if on_event is None else on_event, ON_EVENT_SIG, "on_event"),
+        native(no_on_event_jvp if on_event_jvp is None else on_event_jvp, ON_EVENT_JVP_SIG,
+               "on_event_jvp"),
+        float(t0), vector(y0), state_vector(z), _in_place(W, "W"), _in_place(Wz, "Wz"),
+        vector(marks), vector(p), float(rtol), vector(atol), vector(scales), float(h0),
+        float(hmax), int(max_steps), int(n_events), bool(tangent_err), bool(want_div),
+        state_vector(diag, "diag"), _in_place(logs, "logs"), int(event_samples))
+
+
+def bind_tangent(rhs, rhs_jvp, events=None, events_jvp=None, on_event=None, on_event_jvp=None):
+    """``solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
+    n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES)``: the tangent
+    DOPRI5 with these functions (a kernel's ``solve_tangent``, a user system's). Nothing is
+    compiled here."""
+    def solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
+                      n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES):
+        return dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z,
+                              W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events,
+                              tangent_err, want_div, diag, logs, event_samples)
+    solve_tangent.functions = (rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp)
+    return solve_tangent

@@ -127,7 +127,6 @@ def structure_key(scene: Scene, topo: Topology) -> dict:
         "driver": None if scene.driver is None else (scene.driver.joint, scene.driver.mode),
         "loads": [(ld.type, ld.body, ld.point, ld.bodies, ld.points, ld.modulation, len(ld.table_angles))
                   for ld in scene.loads],
-        "solvers": solver_fingerprint(),
         "laws": law_fingerprint(scene, topo),
     }
 
@@ -143,17 +142,6 @@ def law_fingerprint(scene: Scene, topo: Topology) -> dict:
                       for f in contact_law(nm).functions())
         out[nm] = hashlib.sha1(src.encode()).hexdigest()[:12]
     return out
-
-
-def solver_fingerprint() -> str:
-    """Hash of the integrators inlined into the generated solve wrappers. numba's disk cache does not
-    notice a change in them (only in the kernel file itself), so a change must rename the kernel."""
-    import hashlib
-    from pathlib import Path
-    d = Path(__file__).resolve().parent.parent / "integrators"
-    return hashlib.sha1(b"".join((d / f).read_bytes() for f in ("dopri5.py", "dop853.py", "rosenbrock.py", "tangent.py",
-                                                                "events.py"))
-                        ).hexdigest()[:12]
 
 
 class Emitter:
@@ -711,8 +699,6 @@ def _header(scene: Scene, topo: Topology) -> list[str]:
         "from nld.laws.elastic import elastic_force, contact_energy",
         "from nld.laws.friction import coulomb, ambrosio, viscous, slip_velocity",
         "from nld.kernel.support import periodic_table",
-        "from nld.integrators.dopri5 import dopri5",
-        "from nld.integrators.events import EVENT_SAMPLES",
         "",
     ]
 
@@ -1130,31 +1116,13 @@ def generate(scene: Scene, topo: Topology, layout) -> str:
         "",
         "",
     ]
-    # one module-level wrapper per native method (nld.integrators.NATIVE), so that numba's disk
-    # cache holds the integrator specialised for this kernel (a dispatcher passed from Python is
-    # never found in the cache); methods other than dopri5 compile on first use. The Python
-    # function in front of each fixes the argument types (event_samples always given, arrays
-    # writable and contiguous, scalars float/int): one compiled specialisation per method
+    # one solve function per native method (nld.integrators.NATIVE): the shared integrator,
+    # compiled once per machine, called with this kernel's functions as first-class function
+    # arguments (nld.integrators.core); nothing of the integrator is compiled per kernel
     from nld.integrators import NATIVE
-    out += ["from nld.kernel.support import writable_vector", ""]
+    out += ["from nld.integrators import bind as _bind", ""]
     for module, fn, wrapper in NATIVE.values():
-        out += [
-            f"from nld.integrators.{module} import {fn}",
-            "",
-            "@njit(cache=True)",
-            f"def {wrapper}_jit(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,",
-            "        max_log, event_samples):",
-            f"    return {fn}(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,",
-            "        max_steps, n_events, max_log, event_samples)",
-            "",
-            "",
-            f"def {wrapper}(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,",
-            "        event_samples=EVENT_SAMPLES):",
-            f"    return {wrapper}_jit(float(t0), writable_vector(y0), writable_vector(t_eval), bool(land), p, z,",
-            "        float(rtol), writable_vector(atol), float(h0), float(hmax), int(max_steps), int(n_events),",
-            "        int(max_log), int(event_samples))",
-            "",
-        ]
+        out += [f"{wrapper} = _bind({fn!r}, rhs, events, on_event)", ""]
     try:
         out += tangent_source(rhs_src, events_src, on_event_src)
     except (ValueError, SyntaxError) as e:     # nld.kernel.autodiff.AutodiffError is a ValueError
@@ -1193,14 +1161,9 @@ def tangent_source(rhs_src: str, events_src: str, on_event_src: str) -> list[str
     for src in fns:
         out += [dec] + src.splitlines() + [""]
     out += [
-        "from nld.integrators.tangent import dopri5_tangent",
+        "from nld.integrators.tangent import bind_tangent as _bind_tangent",
         "",
-        "@njit(cache=True)",
-        "def solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,",
-        "                  n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES):",
-        "    return dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,",
-        "                          y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,",
-        "                          n_events, tangent_err, want_div, diag, logs, event_samples)",
+        "solve_tangent = _bind_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp)",
         "",
     ]
     return out

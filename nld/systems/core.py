@@ -21,11 +21,10 @@ Rodas4 of ``nld.integrators.rosenbrock``; relative tolerance ``rtol``, absolute 
 ``rtol * scales`` per state, events located so contact onsets of a scene are handled).
 :func:`iterate` applies a map.
 
-Compilation: numba's disk cache only finds an integrator specialisation compiled inside a
-``@njit(cache=True)`` function whose rhs is a module global (see ``nld/integrators/dopri5.py``).
-The built-in flows and every scene (``Kernel.module.solve``) have such a wrapper and load from the
-cache; a user :class:`ContinuousSystem` without ``solve=`` compiles DOPRI5 for its rhs once per
-process (a few seconds).
+Compilation: the integrators are compiled once per machine for first-class function arguments
+(``nld.integrators.core``); a system's functions are compiled for that signature on first use
+(disk-cached like any ``@njit(cache=True)`` function), so a new user system or scene costs the
+compilation of its own functions only.
 
 Units: the time of a flow is in seconds (``time_unit``), so exponents are in 1/s; for a scene the
 state is [independent coordinates (m or rad), their rates (m/s or rad/s)]. A map's "time" is the
@@ -39,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError, SolveError
-from nld.integrators import NATIVE_METHODS, kernel_solver, method_status_message, native_integrator
+from nld.integrators import NATIVE_METHODS, bind, kernel_solver, method_status_message
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
 from nld.integrators.events import EVENT_SAMPLES, check_event_samples
 from nld.settings import LYAPUNOV
@@ -106,9 +105,9 @@ class ContinuousSystem:
     z0:     initial discrete state (default empty); events/on_event/n_events: as for
             ``nld.integrators.dopri5`` (default none).
     solve:  optional ``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
-            n_events, max_log[, event_samples])``, a ``@njit(cache=True)`` wrapper of dopri5
-            with this system's functions (as ``Kernel.module.solve``), so the integrator loads
-            from numba's cache. A wrapper without ``event_samples`` runs the integrator's
+            n_events, max_log[, event_samples])`` returning a ``nld.integrators.Solution`` (as
+            ``Kernel.module.solve``, or ``nld.integrators.bind(method, rhs, events,
+            on_event)``); default: that, made here. A wrapper without ``event_samples`` runs the integrator's
             default and refuses another ``event_samples``.
     hmax:   step cap (s); default period/20 for a forced system, else none.
     time_unit: unit of t (default "s"): exponents are reported per time_unit.
@@ -220,24 +219,12 @@ class ContinuousSystem:
 
 
 def _make_solver(rhs, events, on_event, method: str = "dopri5"):
-    """A jitted wrapper of the integrator ``method`` for user functions (compiled once per
-    process and set of functions, not cached on disk: systems made from the same functions, as
-    in a parameter sweep, share it).
-
-    ``dopri5`` is ``cache=True, inline='always'``: calling it from Python with function
-    arguments would try to write dispatcher types into its disk-cache index, which fails once
-    that index holds types of functions from other processes; inlined into this uncached
-    closure it never touches the cache."""
+    """The solve function of the integrator ``method`` for user functions
+    (``nld.integrators.bind``; systems made from the same functions share it)."""
     key = (rhs, events, on_event, method)
     if key in _USER_SOLVERS:
         return _USER_SOLVERS[key]
-    integrator = native_integrator(method)     # a compile-time constant of the closure
-
-    @njit
-    def solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log,
-              event_samples):
-        return integrator(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0,
-                          hmax, max_steps, n_events, max_log, event_samples)
+    solve = bind(method, rhs, events, on_event)
     _USER_SOLVERS[key] = solve
     return solve
 
@@ -391,7 +378,6 @@ def _builtin_rhs(t, y, p, z, dy):
         linear_rhs(t, y, q, z, dy)
 
 
-@njit(cache=True)
 def _solve_builtin(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
                    max_log, event_samples):
     return dopri5(_builtin_rhs, no_events, no_on_event, t0, y0, t_eval, land, p, z, rtol, atol,

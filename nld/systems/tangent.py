@@ -30,7 +30,9 @@ from numba import njit
 from nld.errors import InputError, SolveError
 from nld.integrators.events import EVENT_SAMPLES
 from nld.integrators.tangent import (DG_DIV, DG_EVENTS, DG_GRAZE, DG_LOGDET, DG_MINRATIO, DG_SALT,
-                                  DG_SIMUL, DG_UP, N_DIAG, dopri5_tangent)
+                                  DG_SIMUL, DG_UP, N_DIAG, bind_tangent, dopri5_tangent,
+                                  no_events_jvp, no_on_event_jvp)
+from nld.integrators.core import no_events, no_on_event
 
 __all__ = ["TangentRun", "run_tangent", "tangent_functions", "diag_dict"]
 
@@ -98,27 +100,6 @@ def _builtin_rhs(t, y, p, z, dy):
     _builtin_rhs_jvp(t, y, p, z, dy, 0.0, tmp, z, tmp2)
 
 
-@njit(cache=True)
-def no_events(t, y, p, z, g):
-    pass
-
-
-@njit(cache=True)
-def no_events_jvp(t, y, p, z, g, td, yd, zd, gd):
-    pass
-
-
-@njit(cache=True)
-def no_on_event(k, direction, t, y, p, z):
-    return 0
-
-
-@njit(cache=True)
-def no_on_event_jvp(k, direction, t, y, p, z, td, yd, zd):
-    return 0
-
-
-@njit(cache=True)
 def _solve_tangent_builtin(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
                            n_events, tangent_err, want_div, diag, logs, event_samples):
     return dopri5_tangent(_builtin_rhs, _builtin_rhs_jvp, no_events, no_events_jvp, no_on_event,
@@ -260,13 +241,7 @@ def tangent_functions(system):
         else:
             ev_jvp, oe_jvp = no_events_jvp, no_on_event_jvp
         ev, oe = system.events, system.on_event
-
-        @njit
-        def solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
-                          n_events, tangent_err, want_div, diag, logs, event_samples):
-            return dopri5_tangent(rhs, rhs_jvp, ev, ev_jvp, oe, oe_jvp, t0, y0, z, W, Wz, marks,
-                                  p, rtol, atol, scales, h0, hmax, max_steps, n_events,
-                                  tangent_err, want_div, diag, logs, event_samples)
+        solve_tangent = bind_tangent(rhs, rhs_jvp, ev, ev_jvp, oe, oe_jvp)
         res = (solve_tangent, how)
     if key is not None:
         _USER_TANGENT[key] = res

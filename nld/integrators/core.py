@@ -1,0 +1,520 @@
+"""What every native integrator shares: the typed result, the compiled-function arguments, and the
+step-control core (accept/reject, PI step-size control, initial step, output writing, statuses).
+
+Method files (``dopri5.py``, ``dop853.py``, ``rosenbrock.py``, ``tangent.py``) hold their tableau
+and their stage computation and call the inlined helpers below for everything else, as scipy's
+``_ivp/rk.py`` sits over ``base.py`` and diffrax's ``_solver/`` over ``_step_size_controller/``.
+
+**Compiled once per machine.** The integrators take the scene's (or user's) ``rhs``, ``events``,
+``on_event`` (and the tangent JVPs) as *first-class function* arguments of a fixed signature
+(``numba.types.FunctionType``, the constants ``RHS``, ``EVENTS``, ``ON_EVENT``...), so numba
+compiles each integrator once, for that signature, and its disk cache serves every scene and
+every user system afterwards: a new scene compiles only its own small functions. The Python
+fronts (``dopri5(...)`` etc.) turn numba functions into :class:`NativeFunction` objects (the
+addresses of their compiled code for the signature) with :func:`native` and coerce the arrays,
+so exactly one specialisation per integrator exists. ``inlined(dopri5_core)`` is an uncached
+twin that, called with plain numba dispatchers, compiles the integrator with the functions
+inlined (the old build, once per scene and process): kept for the side-by-side measurement in
+benchmarks/bench_indirection.py and the round-off test in tests/test_compile_once.py.
+docs/performance.md, "Compiled once".
+
+Step-size control: Hairer, Norsett & Wanner, *Solving ODEs I*, 2nd ed. 1993, sec. II.4 (the
+initial step HINIT, the error norm) and the Lund-stabilised PI controller of DOPRI5/DOP853
+(sec. IV.2 of vol. II); Rodas4 uses its own (Gustafsson) controller in rosenbrock.py.
+"""
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit, types
+from numba.core.typing.typeof import typeof_impl
+
+from nld.errors import InputError
+
+from .events import EPS, EVENT_SAMPLES
+
+# ---------------------------------------------------------------- statuses
+SUCCESS = 0          # reached t_end
+STOPPED = 1          # on_event returned 1
+MAX_STEPS = -1       # max_steps exceeded
+STEP_UNDERFLOW = -2  # step size underflow after a rejection
+NON_FINITE = -3      # non-finite values that halving the step could not cure
+
+MAX_NONFINITE = 50   # halvings after non-finite values before NON_FINITE
+
+# ---------------------------------------------------------------- PI step-size control (Hairer)
+BETA = 0.04
+SAFE = 0.9
+FACMIN = 0.2    # hnew/h >= FACMIN
+FACMAX = 10.0   # hnew/h <= FACMAX
+FACC1 = 1.0 / FACMIN
+FACC2 = 1.0 / FACMAX
+FACOLD0 = 1.0e-4
+# After an event that changed the mode (z: the first step on a new branch of the vector field)
+# a rejected step shrinks by up to FACC1_EVENT (not FACC1), and as if its error were O(h^4)
+# (EXPO_EVENT; never less than the usual shrink): the step starts at the previous branch's size,
+# and at a contact onset the solution is not smooth (a force like (t - t*)^1.5), so err^(1/(q+1))
+# under-shrinks and the first step took 6-12 rejections (benchmarks/results/hybrid.md, stop 21).
+# Only mode changes: a user rhs that branches on the sign of a state (tests/test_tangent.py's
+# piecewise-linear oscillator) lands on either side of its switch, and with the larger shrink
+# its first step became short enough for its dense output to show spurious sign changes at
+# round-off level (two extra events at one instant).
+FACC1_EVENT = 1.0e3
+EXPO_EVENT = 1.0 / 4.0
+
+
+# ================================================================ the typed result
+Solution = namedtuple("Solution", ["status", "t", "Y", "n_out", "stats", "ev_t", "ev_k", "ev_dir",
+                                   "n_ev", "Z"])
+Solution.__doc__ = """Result of a native integrator (a named tuple: fields by name or position).
+
+status   0 reached t_end, 1 stopped by on_event, < 0 failed (``nld.integrators.status_message``)
+t        the time reached (s)
+Y        (len(t_eval), n) states at t_eval; NaN rows where not reached
+n_out    rows of Y filled
+stats    int64 [steps, accepted, rejected, rhs evaluations, events (, Jacobians, LUs: rodas)]
+ev_t, ev_k, ev_dir   the event log: time, event index, direction (+1 up, -1 down); n_ev entries
+n_ev     events logged
+Z        (len(t_eval), nz) discrete state in force at each output row
+"""
+
+
+# ================================================================ first-class function arguments
+_F = types.float64
+_I = types.int64
+_A = types.float64[::1]
+RHS_SIG = types.void(_F, _A, _A, _A, _A)                        # rhs(t, y, p, z, dy)
+EVENTS_SIG = RHS_SIG                                            # events(t, y, p, z, g)
+ON_EVENT_SIG = _I(_I, _I, _F, _A, _A, _A)                       # on_event(k, dir, t, y, p, z) -> int
+JVP_SIG = types.void(_F, _A, _A, _A, _A, _F, _A, _A, _A)        # rhs_jvp / events_jvp
+ON_EVENT_JVP_SIG = _I(_I, _I, _F, _A, _A, _A, _F, _A, _A)       # on_event_jvp
+RHS = types.FunctionType(RHS_SIG)
+EVENTS = types.FunctionType(EVENTS_SIG)
+ON_EVENT = types.FunctionType(ON_EVENT_SIG)
+JVP = types.FunctionType(JVP_SIG)
+ON_EVENT_JVP = types.FunctionType(ON_EVENT_JVP_SIG)
+
+_SIG_TEXT = {
+    RHS_SIG: "rhs(t, y, p, z, dy) writing dy in place and returning nothing",
+    ON_EVENT_SIG: "on_event(k, direction, t, y, p, z) returning an int (0 go on, 1 stop)",
+    JVP_SIG: "jvp(t, y, p, z, out, t_d, y_d, z_d, out_d) returning nothing",
+    ON_EVENT_JVP_SIG: "on_event_jvp(k, direction, t, y, p, z, t_d, y_d, z_d) returning an int",
+}
+
+
+class NativeFunction(types.WrapperAddressProtocol):
+    """A numba-compiled function as a first-class function argument of a fixed signature: the
+    addresses of its compiled code (the C wrapper, and numba's own entry so that exceptions
+    raised in it propagate). Made by :func:`native`; keeps the dispatcher alive."""
+
+    __slots__ = ("dispatcher", "sig", "_type", "_c_addr", "_jit_addr")
+
+    def __init__(self, dispatcher, sig):
+        cres = dispatcher.get_compile_result(sig)
+        self.dispatcher = dispatcher
+        self.sig = sig
+        self._type = types.FunctionType(sig)
+        self._c_addr = cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name)
+        self._jit_addr = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+
+    def __wrapper_address__(self):
+        return self._c_addr
+
+    def __jit_address__(self):
+        return self._jit_addr
+
+    def signature(self):
+        return self.sig
+
+    def __repr__(self):
+        return f"NativeFunction({getattr(self.dispatcher, '__name__', '?')}: {self.sig})"
+
+
+@typeof_impl.register(NativeFunction)
+def _typeof_native(val, c):
+    # the registered typeof makes a call with NativeFunction arguments as cheap as one with
+    # arrays (numba's generic WrapperAddressProtocol typing rebuilds the type: ~5 us per argument)
+    return val._type
+
+
+def _install_jit_address_hook():
+    """numba calls a first-class function through its C wrapper (exceptions raised inside are
+    printed and dropped) unless it knows the function's own entry point, which it looks up only
+    for its dispatchers. This teaches it the entry point of a NativeFunction, so that an
+    exception in a scene function (np.linalg.solve on a singular matrix) propagates as it did
+    when the functions were inlined. Without the hook (another numba) the C wrapper is used."""
+    try:
+        from numba.experimental import function_type as ft
+    except ImportError:                      # pragma: no cover - other numba layouts
+        return False
+    orig = getattr(ft, "_get_jit_address", None)
+    if orig is None or getattr(orig, "_nld_hook", False):
+        return orig is not None
+
+    def _get_jit_address(func, sig):
+        f = getattr(func, "__jit_address__", None)
+        if f is not None:
+            return f()
+        return orig(func, sig)
+
+    _get_jit_address._nld_hook = True
+    ft._get_jit_address = _get_jit_address
+    return True
+
+
+JIT_ADDRESS_HOOK = _install_jit_address_hook()
+
+_NATIVE: dict[tuple[int, object], NativeFunction] = {}
+
+
+def native(fn, sig, field: str = "function") -> NativeFunction:
+    """``fn`` (a numba ``@njit`` function, or a NativeFunction) as a first-class function of
+    signature ``sig`` (one of the ``*_SIG`` constants); compiled for it on first use (disk-cached
+    like any numba function). InputError, naming ``field``, if ``fn`` is not a numba function or
+    its result type does not match."""
+    if isinstance(fn, NativeFunction):
+        if fn.sig != sig:
+            raise InputError(f"{field} = {fn!r}: expected signature {sig}")
+        return fn
+    key = (id(fn), sig)
+    got = _NATIVE.get(key)
+    if got is not None and got.dispatcher is fn:
+        return got
+    if not hasattr(fn, "get_compile_result"):
+        raise InputError(f"{field} = {getattr(fn, '__name__', fn)!r}: must be a numba-compiled function "
+                         f"(decorate it with numba.njit): {_SIG_TEXT.get(sig, sig)}")
+    try:
+        got = NativeFunction(fn, sig)
+    except Exception as e:      # numba typing errors: wrong arity, wrong argument use
+        raise InputError(f"{field} = {getattr(fn, '__name__', fn)!r} does not compile as "
+                         f"{_SIG_TEXT.get(sig, sig)}: {' '.join(str(e).split())[:300]}") from None
+    ret = fn.overloads[sig.args].signature.return_type
+    if ret != sig.return_type and not (sig.return_type == types.int64 and isinstance(ret, types.Integer)):
+        raise InputError(f"{field} = {getattr(fn, '__name__', fn)!r} returns {ret}: expected "
+                         f"{_SIG_TEXT.get(sig, sig)}")
+    _NATIVE[key] = got
+    return got
+
+
+def vector(a) -> np.ndarray:
+    """``a`` as a writable, C-contiguous float64 vector (itself when it already is one)."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.ndim == 1 and a.flags.c_contiguous \
+            and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64).reshape(-1)
+
+
+def state_vector(z, field: str = "z") -> np.ndarray:
+    """The discrete state, updated in place by the integrator: it must already be a writable,
+    C-contiguous float64 vector (a copy would hide the update from the caller)."""
+    if isinstance(z, np.ndarray) and z.dtype == np.float64 and z.ndim == 1 and z.flags.c_contiguous \
+            and z.flags.writeable:
+        return z
+    raise InputError(f"{field}: must be a writable, C-contiguous float64 vector (it is updated in "
+                     f"place); got {type(z).__name__} {getattr(z, 'dtype', '')}")
+
+
+# ================================================================ the step-control core
+@njit(cache=True, inline='always')
+def check_arguments(t0, t_eval, atol, n):
+    """ValueError for unsorted t_eval, t_eval before t0, or atol of the wrong length."""
+    n_eval = t_eval.shape[0]
+    for i in range(1, n_eval):
+        if t_eval[i] < t_eval[i - 1]:
+            raise ValueError("t_eval must be sorted ascending")
+    if n_eval > 0 and t_eval[0] < t0:
+        raise ValueError("t_eval must lie within [t0, t_end]")
+    if atol.shape[0] != n and atol.shape[0] != 2 * n:
+        raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
+
+
+@njit(cache=True, inline='always')
+def new_outputs(n_eval, n, nz, max_log, n_stats):
+    """(Y, Z, stats, ev_t, ev_k, ev_dir): the output rows (NaN until written), the discrete state
+    at each row, the counters and the event log (only the first n_ev entries are written)."""
+    Y = np.full((n_eval, n), np.nan)
+    Zo = np.zeros((n_eval, nz))
+    stats = np.zeros(n_stats, dtype=np.int64)
+    ev_t = np.empty(max_log, dtype=np.float64)
+    ev_k = np.empty(max_log, dtype=np.int64)
+    ev_dir = np.empty(max_log, dtype=np.int64)
+    return Y, Zo, stats, ev_t, ev_k, ev_dir
+
+
+@njit(cache=True, inline='always')
+def initial_rows(t0, y0, z, t_eval, Y, Zo):
+    """Write the rows of t_eval at or before t0 (the initial state); returns the next row."""
+    n = y0.shape[0]
+    i_out = 0
+    while i_out < t_eval.shape[0] and t_eval[i_out] <= t0:
+        for j in range(n):
+            Y[i_out, j] = y0[j]
+        Zo[i_out, :] = z
+        i_out += 1
+    return i_out
+
+
+@njit(cache=True, inline='always')
+def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
+    """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output ``interp`` of the
+    step [t, t + h] (coefficients ``cont``). Returns the next output index."""
+    n_eval = t_eval.shape[0]
+    n = y_hi.shape[0]
+    while i_out < n_eval and t_eval[i_out] <= t_hi:
+        te = t_eval[i_out]
+        if te == t_hi:
+            for j in range(n):
+                Y[i_out, j] = y_hi[j]
+        else:
+            interp((te - t) / h, cont, Y[i_out])
+        Zo[i_out, :] = z
+        i_out += 1
+    return i_out
+
+
+@njit(cache=True, inline='always')
+def finish(stats, n_steps, n_acc, n_rej, nfev, n_ev):
+    """Write the common counters into stats (further entries are the method's)."""
+    stats[0] = n_steps
+    stats[1] = n_acc
+    stats[2] = n_rej
+    stats[3] = nfev
+    stats[4] = n_ev
+
+
+@njit(cache=True, inline='always')
+def rweight(atol, n, i):
+    """Weight of rtol for state i: ``atol[n + i]`` when ``atol`` has 2n entries, else 1.
+
+    The error scale of state i is ``atol[i] + rtol * rweight * max(|y_i|, |ynew_i|)``. A weight
+    of 0 makes the control of that state purely absolute: used for angles that wind (a relative
+    joint angle grows by 2 pi per crank revolution, so a relative tolerance would loosen as the
+    run goes on) and for positions whose size says nothing about the accuracy needed (a journal
+    position of 0.1 m next to a clearance of 0.1 mm). docs/integrator.md, "Tolerances"."""
+    if atol.shape[0] == 2 * n:
+        return atol[n + i]
+    return 1.0
+
+
+@njit(cache=True, inline='always')
+def step_cap(span, hmax):
+    """The largest step: the span, or hmax when it is positive and smaller."""
+    hcap = span
+    if hmax > 0.0 and hmax < hcap:
+        hcap = hmax
+    return hcap
+
+
+@njit(cache=True, inline='always')
+def first_guess(y, f0, atol, rtol):
+    """(h, ||f0||^2): HINIT's first guess 0.01 ||y|| / ||f0|| in the error norm (1e-6 when
+    either norm is tiny or not finite); the tangent DOPRI5 uses it alone, without the second
+    derivative estimate (no extra rhs evaluation)."""
+    n = y.shape[0]
+    dnf = 0.0
+    dny = 0.0
+    for i in range(n):
+        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
+        dnf += (f0[i] / sk) ** 2
+        dny += (y[i] / sk) ** 2
+    if dnf <= 1e-10 or dny <= 1e-10 or not math.isfinite(dnf) or not math.isfinite(dny):
+        return 1.0e-6, dnf
+    return math.sqrt(dny / dnf) * 0.01, dnf
+
+
+@njit(cache=True, inline='always')
+def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
+    """Hairer's HINIT for a method of the given order (one extra rhs evaluation)."""
+    n = y.shape[0]
+    h, dnf = first_guess(y, f0, atol, rtol)
+    h = min(h, hmax, span)
+    for i in range(n):
+        y1[i] = y[i] + h * f0[i]
+    rhs(t0 + h, y1, p, z, f1)
+    der2 = 0.0
+    for i in range(n):
+        sk = atol[i] + rtol * rweight(atol, n, i) * abs(y[i])
+        der2 += ((f1[i] - f0[i]) / sk) ** 2
+    der2 = math.sqrt(der2) / h
+    der12 = max(abs(der2), math.sqrt(dnf))
+    if not math.isfinite(der12):
+        h1 = abs(h) * 1.0e-3
+    elif der12 <= 1e-15:
+        h1 = max(1.0e-6, abs(h) * 1.0e-3)
+    else:
+        h1 = (0.01 / der12) ** (1.0 / order)
+    return min(100.0 * abs(h), h1, hmax, span)
+
+
+@njit(cache=True, inline='always')
+def usable_step(h, span):
+    """h, or 1e-6 of the span when h is not a positive finite number."""
+    if not (h > 0.0) or not math.isfinite(h):
+        return 1e-6 * span
+    return h
+
+
+@njit(cache=True, inline='always')
+def next_step(t, h, hcap, target):
+    """(t_new, h) of the next try: h capped, at least a few ulps of t, landing on ``target``
+    when within 1 % of it (no sliver step, as in DOPRI5)."""
+    if h > hcap:
+        h = hcap
+    if h < 4.0 * EPS * abs(t):      # never a step that does not move t
+        h = 4.0 * EPS * abs(t)
+    if t + 1.01 * h >= target:
+        t_new = target
+    else:
+        t_new = t + h
+    return t_new, t_new - t
+
+
+@njit(cache=True, inline='always')
+def too_small(h, t):
+    """A step this small after a rejection cannot move t: the run fails (underflow)."""
+    return h < 16.0 * EPS * abs(t) or h < 1e-300
+
+
+@njit(cache=True, inline='always')
+def nonfinite_gives_up(h, t, n_nonfinite):
+    """After a halving for non-finite values: give up (status NON_FINITE)?"""
+    return n_nonfinite >= MAX_NONFINITE or too_small(h, t)
+
+
+@njit(cache=True, inline='always')
+def rejected_shrink(err, fac11, facc1, new_branch):
+    """The factor h_old / h_new after a rejected step (err > 1): Hairer's min(facc1, fac11 / SAFE)
+    (fac11 = err^EXPO1 of the method), and on the first step after a mode change at least
+    min(FACC1_EVENT, err^EXPO_EVENT / SAFE) (the comment at FACC1_EVENT). Used by dopri5, dop853
+    and the tangent DOPRI5."""
+    shrink = min(facc1, fac11 / SAFE)
+    if new_branch:
+        shrink = max(shrink, min(FACC1_EVENT, err ** EXPO_EVENT / SAFE))
+    return shrink
+
+
+@njit(cache=True, inline='always')
+def pi_next_step(h, fac11, facold, reject, beta, facc1, facc2):
+    """The next step after an accepted one, by the Lund-stabilised PI controller of DOPRI5 and
+    DOP853 (each with its constants): h / clip(err^expo1 / facold^beta / SAFE, facc2, facc1)
+    (fac11 = err^expo1), no larger than h right after a rejection."""
+    fac = fac11 / facold ** beta
+    fac = max(facc2, min(facc1, fac / SAFE))
+    hnew = h / fac
+    if reject:
+        hnew = min(hnew, h)
+    return hnew
+
+
+@njit(cache=True, inline='always')
+def save_state(z, zsave):
+    for i in range(z.shape[0]):
+        zsave[i] = z[i]
+
+
+@njit(cache=True, inline='always')
+def changed(z, zsave):
+    """Whether on_event changed the discrete state (a new branch of the vector field)."""
+    for i in range(z.shape[0]):
+        if z[i] != zsave[i]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def all_finite(a):
+    for v in a.flat:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@njit(cache=True)
+def no_events(t, y, p, z, g):
+    """Placeholder ``events`` for n_events = 0 (never called)."""
+    pass
+
+
+@njit(cache=True)
+def no_on_event(k, direction, t, y, p, z):
+    """Placeholder ``on_event`` that never stops."""
+    return 0
+
+
+def functions(rhs, events, on_event):
+    """The three scene functions as first-class function arguments (``native``); ``events`` /
+    ``on_event`` None: the placeholders."""
+    return (native(rhs, RHS_SIG, "rhs"),
+            native(no_events if events is None else events, EVENTS_SIG, "events"),
+            native(no_on_event if on_event is None else on_event, ON_EVENT_SIG, "on_event"))
+
+
+def front(core, n_stats=None):
+    """The Python front of a jitted integrator core ``core(rhs, events, on_event, t0, y0, t_eval,
+    land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log, event_samples)``: converts the
+    functions to NativeFunction and the arguments to the one compiled signature, and returns a
+    :class:`Solution`."""
+    def solve(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
+              n_events, max_log, event_samples=EVENT_SAMPLES):
+        f, g, o = functions(rhs, events, on_event)
+        return Solution(*core(f, g, o, float(t0), vector(y0), vector(t_eval), bool(land), vector(p),
+                              state_vector(z), float(rtol), vector(atol), float(h0), float(hmax),
+                              int(max_steps), int(n_events), int(max_log), int(event_samples)))
+
+    solve.core = core
+    solve.__name__ = core.__name__.replace("_core", "")
+    solve.__doc__ = core.__doc__
+    return solve
+
+
+def drop_stale_caches(dispatchers) -> int:
+    """Delete numba's disk cache of these integrator cores when a source file of
+    nld/integrators is newer than it; returns the number of files deleted.
+
+    numba keys its cache on the timestamp of the file that defines a function, not of the files
+    whose functions are inlined into it: the step-control core (this file) and the event location
+    (events.py) are inlined into every integrator, so after a change of either an integrator
+    would load stale machine code. Called once at the import of nld.integrators (a few stat calls);
+    after an upgrade the first run recompiles the integrators once."""
+    from pathlib import Path
+    here = Path(__file__).resolve().parent
+    try:
+        newest = max(f.stat().st_mtime for f in here.glob("*.py"))
+    except (OSError, ValueError):
+        return 0
+    n = 0
+    for d in dispatchers:
+        try:
+            cf = d._cache._cache_file
+            index = Path(cf._index_path)
+            data = cf._data_name_pattern.replace("{number:d}", "*")
+        except AttributeError:          # another numba: leave its cache alone
+            continue
+        files = [index] + list(index.parent.glob(data))
+        for f in files:
+            try:
+                stale = f.stat().st_mtime < newest
+            except FileNotFoundError:   # another process removed it
+                continue
+            if stale:
+                f.unlink(missing_ok=True)
+                n += 1
+    return n
+
+
+_INLINED: dict = {}
+
+
+def inlined(core):
+    """An uncached twin of a jitted integrator core for calls with plain numba functions (numba
+    dispatchers, not NativeFunction): each call signature compiles the whole integrator with the
+    functions inlined, the build nld used before the integrators were compiled once. Not written
+    to the disk cache (its types name function addresses of one process). For the side-by-side
+    measurement (benchmarks/bench_indirection.py) and the round-off test
+    (tests/test_compile_once.py); nothing in nld runs it."""
+    twin = _INLINED.get(core)
+    if twin is None:
+        twin = _INLINED[core] = njit(cache=False)(core.py_func)
+    return twin
