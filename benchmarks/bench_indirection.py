@@ -35,7 +35,7 @@ import numba  # noqa: E402
 
 from nld.integrators import dopri5, native  # noqa: E402,F401
 from nld.integrators.core import inlined  # noqa: E402
-from nld.integrators.dopri5 import dopri5_core  # noqa: E402
+from nld.integrators.dopri5 import dopri5_core, interp  # noqa: E402
 from nld.integrators.events import EVENT_SAMPLES  # noqa: E402
 from nld.integrators.tangent import dopri5_tangent, dopri5_tangent_core  # noqa: E402
 from nld.systems.core import SceneSystem  # noqa: E402
@@ -72,7 +72,7 @@ def one_scene(label, name, overrides, revs, repeats, rtol, rtol_tan):
                       float(S.hmax), 10**8, S.n_events, 100_000, EVENT_SAMPLES)
     twin = inlined(dopri5_core)
     ind = lambda: dopri5(m.rhs, m.events, m.on_event, *args(S.z0.copy()))  # noqa: E731
-    inl = lambda: twin(m.rhs, m.events, m.on_event, *args(S.z0.copy()))  # noqa: E731
+    inl = lambda: twin(m.rhs, m.events, m.on_event, interp, *args(S.z0.copy()))  # noqa: E731
     t_c0, _ = cpu(inl)            # compiles the inlined build (the old per-scene cost)
     ind()
     a, b = np.inf, np.inf
@@ -98,7 +98,7 @@ def one_scene(label, name, overrides, revs, repeats, rtol, rtol_tan):
                     False, np.zeros(8), np.zeros((marks.size, 1)), EVENT_SAMPLES)
         fns = (m.rhs, m.rhs_jvp, m.events, m.events_jvp, m.on_event, m.on_event_jvp)
         tind = lambda: dopri5_tangent(*fns, *targs())  # noqa: E731
-        tinl = lambda: ttw(*fns, *targs())  # noqa: E731
+        tinl = lambda: ttw(*fns, interp, *targs())  # noqa: E731
         t_c1, _ = cpu(tinl)
         tind()
         a, b = np.inf, np.inf

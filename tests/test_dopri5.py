@@ -32,6 +32,7 @@ from nld.integrators import (
 from nld.errors import InputError
 from nld.integrators.core import inlined
 from nld.integrators.dopri5 import dopri5_core
+from nld.integrators.dopri5 import interp as dopri5_interp
 from nld.integrators.events import EVENT_SAMPLES
 
 # ------------------------------------------------------------------ test problems
@@ -351,7 +352,7 @@ _DOPRI5_INLINED = inlined(dopri5_core)
 @njit
 def _jitted_driver(t_eval, p, z, rtol, atol):
     # the jitted core with plain numba functions: the integrator compiled with them inlined
-    return _DOPRI5_INLINED(bang_rhs, bang_events, bang_on_event, 0.0, np.array([1.0, 0.0]), t_eval,
+    return _DOPRI5_INLINED(bang_rhs, bang_events, bang_on_event, dopri5_interp, 0.0, np.array([1.0, 0.0]), t_eval,
                        False, p, z, rtol, atol, 0.0, 0.0, 100000, 1, 16, EVENT_SAMPLES)
 
 
@@ -398,6 +399,7 @@ def test_integrator_compiled_once_per_machine(tmp_path):
         from nld.integrators import dopri5
         from nld.integrators.core import inlined
 from nld.integrators.dopri5 import dopri5_core
+from nld.integrators.dopri5 import interp as dopri5_interp
 
         if sys.argv[1] == "a":
             @njit

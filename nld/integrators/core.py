@@ -88,8 +88,10 @@ _A = types.float64[::1]
 RHS_SIG = types.void(_F, _A, _A, _A, _A)                        # rhs(t, y, p, z, dy)
 EVENTS_SIG = RHS_SIG                                            # events(t, y, p, z, g)
 ON_EVENT_SIG = _I(_I, _I, _F, _A, _A, _A)                       # on_event(k, dir, t, y, p, z) -> int
+INTERP_SIG = types.void(_F, types.float64[:, ::1], _A)          # interp(theta, cont, out)
 JVP_SIG = types.void(_F, _A, _A, _A, _A, _F, _A, _A, _A)        # rhs_jvp / events_jvp
 ON_EVENT_JVP_SIG = _I(_I, _I, _F, _A, _A, _A, _F, _A, _A)       # on_event_jvp
+INTERP = types.FunctionType(INTERP_SIG)
 RHS = types.FunctionType(RHS_SIG)
 EVENTS = types.FunctionType(EVENTS_SIG)
 ON_EVENT = types.FunctionType(ON_EVENT_SIG)
@@ -100,6 +102,7 @@ _SIG_TEXT = {
     RHS_SIG: "rhs(t, y, p, z, dy) writing dy in place and returning nothing",
     ON_EVENT_SIG: "on_event(k, direction, t, y, p, z) returning an int (0 go on, 1 stop)",
     JVP_SIG: "jvp(t, y, p, z, out, t_d, y_d, z_d, out_d) returning nothing",
+    INTERP_SIG: "interp(theta, cont, out) writing the dense output into out",
     ON_EVENT_JVP_SIG: "on_event_jvp(k, direction, t, y, p, z, t_d, y_d, z_d) returning an int",
 }
 
@@ -217,7 +220,7 @@ def state_vector(z, field: str = "z") -> np.ndarray:
 
 
 # ================================================================ the step-control core
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def check_arguments(t0, t_eval, atol, n):
     """ValueError for unsorted t_eval, t_eval before t0, or atol of the wrong length."""
     n_eval = t_eval.shape[0]
@@ -230,11 +233,14 @@ def check_arguments(t0, t_eval, atol, n):
         raise ValueError("atol must have one entry per state (or 2n: atol, then rtol weights)")
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def new_outputs(n_eval, n, nz, max_log, n_stats):
     """(Y, Z, stats, ev_t, ev_k, ev_dir): the output rows (NaN until written), the discrete state
     at each row, the counters and the event log (only the first n_ev entries are written)."""
-    Y = np.full((n_eval, n), np.nan)
+    Y = np.empty((n_eval, n))
+    for i in range(n_eval):             # loops, not np.full / slice assignment: numba compiles
+        for j in range(n):              # those generic implementations (seconds of a cold start)
+            Y[i, j] = np.nan
     Zo = np.zeros((n_eval, nz))
     stats = np.zeros(n_stats, dtype=np.int64)
     ev_t = np.empty(max_log, dtype=np.float64)
@@ -243,7 +249,7 @@ def new_outputs(n_eval, n, nz, max_log, n_stats):
     return Y, Zo, stats, ev_t, ev_k, ev_dir
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def initial_rows(t0, y0, z, t_eval, Y, Zo):
     """Write the rows of t_eval at or before t0 (the initial state); returns the next row."""
     n = y0.shape[0]
@@ -251,12 +257,19 @@ def initial_rows(t0, y0, z, t_eval, Y, Zo):
     while i_out < t_eval.shape[0] and t_eval[i_out] <= t0:
         for j in range(n):
             Y[i_out, j] = y0[j]
-        Zo[i_out, :] = z
+        copy_row(z, Zo, i_out)
         i_out += 1
     return i_out
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
+def copy_row(z, Zo, i):
+    """Zo[i, :] = z (a loop: numba compiles slice assignment generically, seconds cold)."""
+    for j in range(z.shape[0]):
+        Zo[i, j] = z[j]
+
+
+@njit(cache=False)
 def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
     """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output ``interp`` of the
     step [t, t + h] (coefficients ``cont``). Returns the next output index."""
@@ -269,12 +282,12 @@ def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
                 Y[i_out, j] = y_hi[j]
         else:
             interp((te - t) / h, cont, Y[i_out])
-        Zo[i_out, :] = z
+        copy_row(z, Zo, i_out)
         i_out += 1
     return i_out
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def finish(stats, n_steps, n_acc, n_rej, nfev, n_ev):
     """Write the common counters into stats (further entries are the method's)."""
     stats[0] = n_steps
@@ -284,7 +297,7 @@ def finish(stats, n_steps, n_acc, n_rej, nfev, n_ev):
     stats[4] = n_ev
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def rweight(atol, n, i):
     """Weight of rtol for state i: ``atol[n + i]`` when ``atol`` has 2n entries, else 1.
 
@@ -298,7 +311,7 @@ def rweight(atol, n, i):
     return 1.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def step_cap(span, hmax):
     """The largest step: the span, or hmax when it is positive and smaller."""
     hcap = span
@@ -307,7 +320,7 @@ def step_cap(span, hmax):
     return hcap
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def first_guess(y, f0, atol, rtol):
     """(h, ||f0||^2): HINIT's first guess 0.01 ||y|| / ||f0|| in the error norm (1e-6 when
     either norm is tiny or not finite); the tangent DOPRI5 uses it alone, without the second
@@ -324,7 +337,7 @@ def first_guess(y, f0, atol, rtol):
     return math.sqrt(dny / dnf) * 0.01, dnf
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
     """Hairer's HINIT for a method of the given order (one extra rhs evaluation)."""
     n = y.shape[0]
@@ -348,7 +361,7 @@ def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
     return min(100.0 * abs(h), h1, hmax, span)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def usable_step(h, span):
     """h, or 1e-6 of the span when h is not a positive finite number."""
     if not (h > 0.0) or not math.isfinite(h):
@@ -356,7 +369,7 @@ def usable_step(h, span):
     return h
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def next_step(t, h, hcap, target):
     """(t_new, h) of the next try: h capped, at least a few ulps of t, landing on ``target``
     when within 1 % of it (no sliver step, as in DOPRI5)."""
@@ -371,19 +384,19 @@ def next_step(t, h, hcap, target):
     return t_new, t_new - t
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def too_small(h, t):
     """A step this small after a rejection cannot move t: the run fails (underflow)."""
     return h < 16.0 * EPS * abs(t) or h < 1e-300
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def nonfinite_gives_up(h, t, n_nonfinite):
     """After a halving for non-finite values: give up (status NON_FINITE)?"""
     return n_nonfinite >= MAX_NONFINITE or too_small(h, t)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def rejected_shrink(err, fac11, facc1, new_branch):
     """The factor h_old / h_new after a rejected step (err > 1): Hairer's min(facc1, fac11 / SAFE)
     (fac11 = err^EXPO1 of the method), and on the first step after a mode change at least
@@ -395,7 +408,7 @@ def rejected_shrink(err, fac11, facc1, new_branch):
     return shrink
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def pi_next_step(h, fac11, facold, reject, beta, facc1, facc2):
     """The next step after an accepted one, by the Lund-stabilised PI controller of DOPRI5 and
     DOP853 (each with its constants): h / clip(err^expo1 / facold^beta / SAFE, facc2, facc1)
@@ -408,13 +421,13 @@ def pi_next_step(h, fac11, facold, reject, beta, facc1, facc2):
     return hnew
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def save_state(z, zsave):
     for i in range(z.shape[0]):
         zsave[i] = z[i]
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def changed(z, zsave):
     """Whether on_event changed the discrete state (a new branch of the vector field)."""
     for i in range(z.shape[0]):
@@ -425,9 +438,10 @@ def changed(z, zsave):
 
 @njit(cache=True)
 def all_finite(a):
-    for v in a.flat:
-        if not math.isfinite(v):
-            return False
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            if not math.isfinite(a[i, j]):
+                return False
     return True
 
 
@@ -451,19 +465,21 @@ def functions(rhs, events, on_event):
             native(no_on_event if on_event is None else on_event, ON_EVENT_SIG, "on_event"))
 
 
-def front(core, n_stats=None):
-    """The Python front of a jitted integrator core ``core(rhs, events, on_event, t0, y0, t_eval,
-    land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log, event_samples)``: converts the
+def front(core, interp):
+    """The Python front of a jitted integrator core ``core(rhs, events, on_event, interp, t0, y0,
+    t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events, max_log, event_samples)``
+    (``interp``: the method's dense output, passed to the shared event location): converts the
     functions to NativeFunction and the arguments to the one compiled signature, and returns a
     :class:`Solution`."""
     def solve(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
               n_events, max_log, event_samples=EVENT_SAMPLES):
         f, g, o = functions(rhs, events, on_event)
-        return Solution(*core(f, g, o, float(t0), vector(y0), vector(t_eval), bool(land), vector(p),
+        return Solution(*core(f, g, o, native(interp, INTERP_SIG, "interp"), float(t0), vector(y0), vector(t_eval), bool(land), vector(p),
                               state_vector(z), float(rtol), vector(atol), float(h0), float(hmax),
                               int(max_steps), int(n_events), int(max_log), int(event_samples)))
 
     solve.core = core
+    solve.interp = interp
     solve.__name__ = core.__name__.replace("_core", "")
     solve.__doc__ = core.__doc__
     return solve

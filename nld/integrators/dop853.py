@@ -240,7 +240,7 @@ MAX_RELOCATE = 8    # event location: retakes of a step to land on a root (see d
 
 
 # ================================================================ DOP853 kernels
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z):
     """One DOP853 step from (t, y) with K[0] = f(t, y): fills K[1..11], ynew and
     K[12] = f(t_new, ynew) (FSAL)."""
@@ -313,7 +313,7 @@ def _stiff_step(h, K, ynew, y12):
     return False
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
     """Three extra stages K[13..15] and the coefficients of the 7th-order continuous extension:
     cont = [y, F0..F6] (K[0] = f(t, y), K[12] = f(t + h, ynew) must be current)."""
@@ -339,7 +339,7 @@ def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
             cont[4 + r, i] = h * acc
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def _hermite_screen(events, n_samples, t, h, y, ynew, K, yint, gtmp, sgn, p, z):
     """Whether some event function with a tracked side has left it at one of ``n_samples``
     equally spaced interior points t + j h / (n_samples + 1) of the step, evaluated on the cubic
@@ -374,7 +374,7 @@ def interp(theta, cont, out):
 
 
 @njit(cache=True)
-def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
                 max_steps, n_events, max_log, event_samples):
     """Adaptive DOP853 from t0 to t_eval[-1]; same arguments, results and statuses as dopri5
     (the jitted core; call ``dop853``).
@@ -404,7 +404,7 @@ def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
     K = np.empty((16, n))
     cont = np.empty((8, n))
     gcur = np.empty(ne)
-    zsave = np.empty_like(z)
+    zsave = np.empty(z.shape[0])
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
     gw = np.empty((4, ne))
@@ -524,7 +524,7 @@ def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
                     continue
                 dense_done = True
                 have_event, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    events, interp_fn, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
                     gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
@@ -540,7 +540,7 @@ def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
                         reject = True
                         h = 0.5 * h
                         continue
-                i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_new
             y, ynew = ynew, y
             for i in range(n):          # FSAL
@@ -565,7 +565,7 @@ def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
         for it in range(MAX_RELOCATE):
             if it > 0:
                 found, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
+                    events, interp_fn, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
                     gtmp, gw, p, z, tol, crossed, troot_a, troot)
                 if not found:
                     fire = False     # the event comes later: t_c is a plain step end
@@ -601,7 +601,7 @@ def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
                 _dense(rhs, t, h_c, y, ynew, K, ytmp, cont, p, z)
                 nfev += 3
                 dense_h = h_c
-            i_out = write_outputs(interp, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
+            i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_c
             y, ynew = ynew, y
 
@@ -633,10 +633,10 @@ def dop853_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
 
 
-dop853 = front(dop853_core)
+dop853 = front(dop853_core, interp)
 
 
-@njit(cache=True)
+@njit(cache=False)
 def dop853_fixed(rhs, t0, y0, h, n_steps, p, z):
     """n_steps fixed DOP853 steps of size h (8th-order solution, no control, no events)."""
     n = y0.shape[0]

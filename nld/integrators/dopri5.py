@@ -83,7 +83,7 @@ D7 = 69997945.0 / 29380423.0
 EXPO1 = 0.2 - 0.75 * BETA      # err^EXPO1: the PI controller's exponent for order 5 (Hairer)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
     """One DOPRI5 step from (t, y) with k1 = f(t, y): fills k2..k7, ynew; k7 = f(t_new, ynew)."""
     n = y.shape[0]
@@ -156,7 +156,7 @@ def interp(theta, cont, out):
 
 
 @njit(cache=True)
-def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
                 max_steps, n_events, max_log, event_samples):
     """Adaptive DOPRI5 from t0 to t_eval[-1] (the jitted core; call ``dopri5``).
 
@@ -194,7 +194,7 @@ def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
     k7 = np.empty(n)
     cont = np.empty((5, n))                 # dense output of the last step
     gcur = np.empty(ne)
-    zsave = np.empty_like(z)
+    zsave = np.empty(z.shape[0])
     gnew = np.empty(ne)
     gtmp = np.empty(ne)
     gw = np.empty((4, ne))
@@ -292,7 +292,7 @@ def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
                 dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
                 dense_done = True
                 have_event, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    events, interp_fn, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
                     gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
@@ -300,7 +300,7 @@ def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
             if i_out < n_eval and t_eval[i_out] <= t_new:
                 if t_eval[i_out] < t_new and not dense_done:
                     dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
-                i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_new
             y, ynew = ynew, y
             k1, k7 = k7, k1     # FSAL
@@ -333,7 +333,7 @@ def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
                         ynew[j] = yint[j]
             else:
                 h_d = h
-            i_out = write_outputs(interp, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
+            i_out = write_outputs(interp_fn, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_star
             y, ynew = ynew, y
 
@@ -357,7 +357,7 @@ def dopri5_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
 
 
-dopri5 = front(dopri5_core)
+dopri5 = front(dopri5_core, interp)
 
 
 @njit(cache=False)

@@ -150,7 +150,7 @@ def lu_solve(a, piv, b):
 
 
 # ================================================================ Rodas kernels
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne):
     """Whether every event function that is nonzero at the base point keeps its sign at (t, ytmp)."""
     if ne == 0:
@@ -186,7 +186,7 @@ def _pick_difference(fp, fm, f0, dp, dm, out):
     return finite
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def fd_jacobian(rhs, events, t, y, f0, p, z, typ, hscale, J, fx, ytmp, fp, fm, col, gbase, gtmp,
                 ne):
     """J = df/dy and fx = df/dt at (t, y), f0 = f(t, y), by differences of the rhs inside numba.
@@ -273,7 +273,7 @@ def _build_matrix(J, fac, E):
         E[i, i] += fac
 
 
-@njit(cache=True, inline='always')
+@njit(cache=False)
 def _stages(rhs, t, h, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z):
     """One Rodas4 step with the factored E = I/(h*gamma) - J: fills AK[0..5] and ynew
     (5 rhs evaluations). AK[5] is the error estimate."""
@@ -384,7 +384,7 @@ def interp(theta, cont, out):
 
 
 @njit(cache=True)
-def rodas_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
+def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
                max_steps, n_events, max_log, event_samples):
     """Adaptive Rodas4 from t0 to t_eval[-1]; same arguments and results as dopri5 (the jitted
     core; call ``rodas``).
@@ -561,14 +561,14 @@ def rodas_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0
                 _dense(y, ynew, AK, cont)
                 dense_done = True
                 have_event, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    events, interp_fn, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
                     gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
             if i_out < n_eval and t_eval[i_out] <= t_new:
                 if t_eval[i_out] < t_new and not dense_done:
                     _dense(y, ynew, AK, cont)
-                i_out = write_outputs(interp, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_new
             y, ynew = ynew, y
             if ne > 0:
@@ -586,7 +586,7 @@ def rodas_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0
         for it in range(MAX_RELOCATE):
             if it > 0:
                 found, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
+                    events, interp_fn, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
                     gtmp, gw, p, z, tol, crossed, troot_a, troot)
                 if not found:
                     fire = False     # the event comes later: t_c is a plain step end
@@ -619,7 +619,7 @@ def rodas_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0
                 break
 
         if t_star > t:
-            i_out = write_outputs(interp, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
+            i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_c
             y, ynew = ynew, y
 
@@ -644,10 +644,10 @@ def rodas_core(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0
     return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
 
 
-rodas = front(rodas_core)
+rodas = front(rodas_core, interp)
 
 
-@njit(cache=True)
+@njit(cache=False)
 def rodas_fixed(rhs, t0, y0, h, n_steps, p, z, typ):
     """n_steps fixed Rodas4 steps of size h (4th-order solution, finite-difference Jacobian at
     every step, no control, no events). typ: the state scales of the Jacobian increments."""

@@ -47,7 +47,7 @@ from .core import (BETA, FACC1, FACC2, FACOLD0, changed, finish, first_guess, ne
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
                      A71, A73, A74, A75, A76, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EXPO1,
                      ROOT_RTOL, dense_coeffs, interp)
-from .core import (EVENTS_SIG, JVP_SIG, ON_EVENT_JVP_SIG, ON_EVENT_SIG, RHS_SIG, native,
+from .core import (EVENTS_SIG, INTERP_SIG, JVP_SIG, ON_EVENT_JVP_SIG, ON_EVENT_SIG, RHS_SIG, native,
                    no_events, no_on_event, state_vector, vector)
 from .events import EVENT_SAMPLES, locate_earliest, set_unknown_signs
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
@@ -64,7 +64,7 @@ def new_diag():
     return d
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _orthonormalise(W, Wz, scales, logs_row):
     """Modified Gram-Schmidt (twice) of the scaled rows W[c]/scales; Wz rows follow."""
     k, n = W.shape
@@ -97,7 +97,7 @@ def _orthonormalise(W, Wz, scales, logs_row):
             W[c, i] *= scales[i]
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _scaled_norm(w, scales):
     s = 0.0
     for i in range(w.shape[0]):
@@ -106,7 +106,7 @@ def _scaled_norm(w, scales):
     return math.sqrt(s)
 
 
-@njit(cache=False, inline='always')
+@njit(cache=False)
 def _stage_eval(rhs, rhs_jvp, ts, ytmp, p, z, W, Wz, KW, s, KY, wtmp, want_div, trace_tmp, unit):
     """KY[s] = f(ts, ytmp); KW[s, c] = J (wtmp_c, Wz_c); returns tr J when want_div."""
     k = W.shape[0]
@@ -139,7 +139,7 @@ BTAB = np.array([A71, 0.0, A73, A74, A75, A76, 0.0])
 ETAB = np.array([E1, 0.0, E3, E4, E5, E6, E7])
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _div_step(h, trs):
     """The step's integral of tr(df/dy) by the 5th-order weights (sum-rule diagnostic)."""
     s = 0.0
@@ -148,7 +148,7 @@ def _div_step(h, trs):
     return h * s
 
 
-@njit(cache=False, inline='always')
+@njit(cache=False)
 def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
                crossed, troot_b, t_fire, sgn, diag, gtmp, gd, unit, wtmp, zcopy, zdz, zzero):
     """Map every tangent vector through the event ``first`` (module docstring)."""
@@ -200,7 +200,7 @@ def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus,
 
 
 @njit(cache=True)
-def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W,
+def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, interp_fn, t0, y0, z, W,
                         Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events,
                         tangent_err, want_div, diag, logs, event_samples):
     """Integrate (y, W, Wz) from t0 through every time in ``marks`` (ascending, > t0),
@@ -395,7 +395,7 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                 events(t_new, ynew, p, z, gnew)
                 dense_coeffs(h, y, ynew, KY[0], KY[2], KY[3], KY[4], KY[5], KY[6], cont)
                 have_event, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
+                    events, interp_fn, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
                     gw, p, z, tol, crossed, troot_a, troot_b)
             if not have_event:
                 if want_div:
@@ -540,7 +540,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
         native(no_events_jvp if events_jvp is None else events_jvp, JVP_SIG, "events_jvp"),
         native(no_on_event if on_event is None else on_event, ON_EVENT_SIG, "on_event"),
         native(no_on_event_jvp if on_event_jvp is None else on_event_jvp, ON_EVENT_JVP_SIG,
-               "on_event_jvp"),
+               "on_event_jvp"), native(interp, INTERP_SIG, "interp"),
         float(t0), vector(y0), state_vector(z), _in_place(W, "W"), _in_place(Wz, "Wz"),
         vector(marks), vector(p), float(rtol), vector(atol), vector(scales), float(h0),
         float(hmax), int(max_steps), int(n_events), bool(tangent_err), bool(want_div),
