@@ -1,9 +1,15 @@
 """What every native integrator shares: the typed result, the compiled-function arguments, and the
 step-control core (accept/reject, PI step-size control, initial step, output writing, statuses).
 
-Method files (``dopri5.py``, ``dop853.py``, ``rosenbrock.py``, ``tangent.py``) hold their tableau
-and their stage computation and call the inlined helpers below for everything else, as scipy's
-``_ivp/rk.py`` sits over ``base.py`` and diffrax's ``_solver/`` over ``_step_size_controller/``.
+Method files (``dopri5.py``, ``dop853.py``, ``rosenbrock.py``, ``tangent.py``) hold their tableau,
+their stage computation, error estimate and dense output, and call the helpers below for
+everything else (the verdict on a step ``judge``, the PI controller ``pi_next_step``, the shrink
+after a rejection, the initial step, landing on output times, output writing, the counters), as
+scipy's ``_ivp/rk.py`` sits over ``base.py`` and diffrax's ``_solver/`` over
+``_step_size_controller/``. The helpers are ordinary compiled functions (not numba IR inlining,
+which re-typed their bodies at every call site and cost seconds of compilation per integrator):
+those that take a model function are compiled with the integrator that calls them, the others are
+cached on their own and shared by every integrator; LLVM inlines them where it pays.
 
 **Compiled once per machine.** The integrators take the scene's (or user's) ``rhs``, ``events``,
 ``on_event`` (and the tangent JVPs) as *first-class function* arguments of a fixed signature
@@ -394,6 +400,35 @@ def too_small(h, t):
 def nonfinite_gives_up(h, t, n_nonfinite):
     """After a halving for non-finite values: give up (status NON_FINITE)?"""
     return n_nonfinite >= MAX_NONFINITE or too_small(h, t)
+
+
+ACCEPTED = 1         # judge(): the step is accepted
+RETRY = 2            # judge(): retry the step with the returned h
+
+
+@njit(cache=True)
+def judge(err, h, t, n_nonfinite, shrink):
+    """The verdict on a step whose (RMS, scaled) error estimate is ``err``, for every method:
+
+    * err not finite (NaN/inf in the solution or its error): RETRY with h halved, or NON_FINITE
+      after MAX_NONFINITE halvings in a row or when h cannot move t;
+    * err > 1: RETRY with h / shrink (the method's factor h_old / h_new), or STEP_UNDERFLOW when
+      that step cannot move t;
+    * else ACCEPTED (h unchanged; the caller proposes the next step).
+
+    Returns (verdict, h, n_nonfinite): the count of non-finite halvings in a row."""
+    if not math.isfinite(err):
+        h = 0.5 * h
+        n_nonfinite += 1
+        if nonfinite_gives_up(h, t, n_nonfinite):
+            return NON_FINITE, h, n_nonfinite
+        return RETRY, h, n_nonfinite
+    if err > 1.0:
+        h = h / shrink
+        if too_small(h, t):
+            return STEP_UNDERFLOW, h, 0
+        return RETRY, h, 0
+    return ACCEPTED, h, 0
 
 
 @njit(cache=True)

@@ -37,10 +37,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (all_finite, changed, check_arguments, finish, front, initial_rows,
-                   initial_step, new_outputs, next_step, nonfinite_gives_up, pi_next_step,
-                   rejected_shrink, rweight, save_state, step_cap, too_small, usable_step,
-                   write_outputs)
+from .core import (ACCEPTED, RETRY, judge, all_finite, changed, check_arguments, finish, front,
+                   initial_rows, initial_step, new_outputs, next_step, pi_next_step,
+                   rejected_shrink, rweight, save_state, step_cap, usable_step, write_outputs)
 from .dopri5 import ROOT_RTOL
 from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
                      set_unknown_signs)
@@ -467,24 +466,14 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
         nfev += 12
         err = _error_norm(h, y, ynew, K, atol, rtol, after_event)
 
-        if not math.isfinite(err):
-            n_rej += 1
-            n_nonfinite += 1
-            reject = True
-            h = 0.5 * h
-            if nonfinite_gives_up(h, t, n_nonfinite):
-                status = -3
-                break
-            continue
-        n_nonfinite = 0
-
         fac11 = err ** EXPO1
-        if err > 1.0:
-            h = h / rejected_shrink(err, fac11, FACC1, new_branch)
-            reject = True
+        verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
+                                        rejected_shrink(err, fac11, FACC1, new_branch))
+        if verdict != ACCEPTED:
             n_rej += 1
-            if too_small(h, t):
-                status = -2
+            reject = True
+            if verdict != RETRY:
+                status = verdict
                 break
             continue
 

@@ -27,12 +27,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (BETA, EPS, FACC1, FACC1_EVENT, FACC2, FACMAX, FACMIN, FACOLD0,  # noqa: F401
-                   MAX_NONFINITE, MAX_STEPS, NON_FINITE, SAFE, STEP_UNDERFLOW, STOPPED, SUCCESS,
-                   EXPO_EVENT, changed, check_arguments, finish, front, initial_rows, initial_step,
-                   new_outputs, next_step, no_events, no_on_event, nonfinite_gives_up,
-                   pi_next_step, rejected_shrink, rweight, save_state, step_cap, too_small,
-                   usable_step, write_outputs)
+from .core import (ACCEPTED, RETRY, judge, BETA, EPS, FACC1, FACC1_EVENT, FACC2, FACMAX, FACMIN,  # noqa: F401
+                   FACOLD0, MAX_NONFINITE, MAX_STEPS, NON_FINITE, SAFE, STEP_UNDERFLOW, STOPPED,
+                   SUCCESS, EXPO_EVENT, changed, check_arguments, finish, front, initial_rows,
+                   initial_step, new_outputs, next_step, no_events, no_on_event, pi_next_step,
+                   rejected_shrink, rweight, save_state, step_cap, usable_step, write_outputs)
 from .events import (EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
                      fire_events, locate_earliest, set_unknown_signs)
 
@@ -251,26 +250,14 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
         nfev += 6
         err = _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol)
 
-        if not math.isfinite(err):
-            # non-finite solution or error estimate: reject and halve
-            n_rej += 1
-            n_nonfinite += 1
-            reject = True
-            h = 0.5 * h
-            if nonfinite_gives_up(h, t, n_nonfinite):
-                status = -3
-                break
-            continue
-        n_nonfinite = 0
-
         fac11 = err ** EXPO1
-        if err > 1.0:
-            # rejected
-            h = h / rejected_shrink(err, fac11, FACC1, new_branch)
-            reject = True
+        verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
+                                        rejected_shrink(err, fac11, FACC1, new_branch))
+        if verdict != ACCEPTED:
             n_rej += 1
-            if too_small(h, t):
-                status = -2
+            reject = True
+            if verdict != RETRY:
+                status = verdict
                 break
             continue
 

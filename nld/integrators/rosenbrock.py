@@ -34,8 +34,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (EPS, check_arguments, finish, front, initial_rows, initial_step, new_outputs,
-                   next_step, no_events, nonfinite_gives_up, rweight, step_cap, too_small,
+from .core import (ACCEPTED, RETRY, judge, EPS, check_arguments, finish, front, initial_rows,
+                   initial_step, new_outputs, next_step, no_events, rweight, step_cap,
                    usable_step, write_outputs)
 from .events import EVENT_SAMPLES, find_crossings, fire_events, locate_earliest, set_unknown_signs
 from .dopri5 import ROOT_RTOL
@@ -513,27 +513,16 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
         nfev += 5
         err = _error_norm(y, ynew, AK[5], atol, rtol)
 
-        if not math.isfinite(err):
-            n_rej += 1
-            n_nonfinite += 1
-            reject = True
-            h = 0.5 * h
-            if nonfinite_gives_up(h, t, n_nonfinite):
-                status = -3
-                break
-            continue
-        n_nonfinite = 0
-
         fac = max(FAC2, min(FAC1, err ** 0.25 / SAFE))
-        hnew = h / fac
-        if err > 1.0:
-            h = hnew
-            reject = True
+        verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite, fac)
+        if verdict != ACCEPTED:
             n_rej += 1
-            if too_small(h, t):
-                status = -2
+            reject = True
+            if verdict != RETRY:
+                status = verdict
                 break
             continue
+        hnew = h / fac
 
         # accepted; Gustafsson's predictive controller
         n_acc += 1

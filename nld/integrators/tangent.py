@@ -41,9 +41,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (BETA, FACC1, FACC2, FACOLD0, changed, finish, first_guess, next_step,
-                   nonfinite_gives_up, pi_next_step, rejected_shrink, rweight, save_state,
-                   step_cap, too_small, usable_step)
+from .core import (ACCEPTED, RETRY, judge, BETA, FACC1, FACC2, FACOLD0, changed, finish,
+                   first_guess, next_step, pi_next_step, rejected_shrink, rweight, save_state,
+                   step_cap, usable_step)
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
                      A71, A73, A74, A75, A76, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EXPO1,
                      ROOT_RTOL, dense_coeffs, interp)
@@ -363,23 +363,16 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                     ec = math.sqrt(acc / n)
                     if ec > err:
                         err = ec
-            if not finite or not math.isfinite(err):
-                n_rej += 1
-                n_nonfinite += 1
-                reject = True
-                h = 0.5 * h
-                if nonfinite_gives_up(h, t, n_nonfinite):
-                    status = -3
-                    break
-                continue
-            n_nonfinite = 0
+            if not finite:
+                err = np.nan
             fac11 = err ** EXPO1
-            if err > 1.0:
-                h = h / rejected_shrink(err, fac11, FACC1, new_branch)
-                reject = True
+            verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
+                                            rejected_shrink(err, fac11, FACC1, new_branch))
+            if verdict != ACCEPTED:
                 n_rej += 1
-                if too_small(h, t):
-                    status = -2
+                reject = True
+                if verdict != RETRY:
+                    status = verdict
                     break
                 continue
             hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
