@@ -39,7 +39,7 @@ from numba.core.typing.typeof import typeof_impl
 
 from nld.errors import InputError
 
-from .events import EPS, EVENT_SAMPLES
+from .events import EPS, EVENT_SAMPLES, fire_events, set_unknown_signs
 
 # ---------------------------------------------------------------- statuses
 SUCCESS = 0          # reached t_end
@@ -256,6 +256,51 @@ def new_outputs(n_eval, n, nz, max_log, n_stats):
 
 
 @njit(cache=True)
+def event_workspace(ne):
+    """Work arrays of the event location for ne event functions: (gcur, gnew, gtmp, gw, sgn,
+    troot_a, troot, crossed): g at the step's start and end, scratch, the 4 sample rows, the
+    tracked sides (0 = undetermined), the root brackets, the functions that changed side."""
+    return (np.empty(ne), np.empty(ne), np.empty(ne), np.empty((4, ne)),
+            np.zeros(ne, dtype=np.int64), np.empty(ne), np.empty(ne), np.zeros(ne, dtype=np.bool_))
+
+
+@njit(cache=False)
+def start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax, span, ytmp, ftmp, order, gcur, sgn):
+    """The start of a run: f0 = f(t0, y), the event functions' sides at t0, the step cap and the
+    first step (h0 if positive, else Hairer's HINIT for a method of this order). Returns
+    (h, hcap, rhs evaluations)."""
+    rhs(t0, y, p, z, f0)
+    nfev = 1
+    if gcur.shape[0] > 0:
+        events(t0, y, p, z, gcur)
+        set_unknown_signs(gcur, sgn)
+    hcap = step_cap(span, hmax)
+    if h0 > 0.0:
+        h = min(h0, hcap)
+    else:
+        h = initial_step(rhs, t0, y, f0, p, z, atol, rtol, hcap, span, ytmp, ftmp, order)
+        nfev += 1
+    return usable_step(h, span), hcap, nfev
+
+
+@njit(cache=False)
+def fire_and_restart(rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave,
+                     ev_t, ev_k, ev_dir, n_ev, max_log, f0, gcur):
+    """At a located event: fire every crossing whose root is within tol of t_star (on_event may
+    change z), then restart there: f0 = f(t, y) and g with the new discrete state (FSAL is
+    invalid). Returns (stop, n_ev, new_branch): new_branch when on_event changed z (a new branch
+    of the vector field, nld.integrators.core.rejected_shrink)."""
+    save_state(z, zsave)
+    stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
+                             ev_k, ev_dir, n_ev, max_log)
+    new_branch = changed(z, zsave)
+    rhs(t, y, p, z, f0)
+    events(t, y, p, z, gcur)
+    set_unknown_signs(gcur, sgn)
+    return stop, n_ev, new_branch
+
+
+@njit(cache=True)
 def initial_rows(t0, y0, z, t_eval, Y, Zo):
     """Write the rows of t_eval at or before t0 (the initial state); returns the next row."""
     n = y0.shape[0]
@@ -454,6 +499,13 @@ def pi_next_step(h, fac11, facold, reject, beta, facc1, facc2):
     if reject:
         hnew = min(hnew, h)
     return hnew
+
+
+@njit(cache=True)
+def pi_accept(h, err, fac11, facold, reject, beta, facc1, facc2):
+    """After an accepted step: (the next step by ``pi_next_step``, the controller's memory of the
+    error, max(err, FACOLD0))."""
+    return pi_next_step(h, fac11, facold, reject, beta, facc1, facc2), max(err, FACOLD0)
 
 
 @njit(cache=True)

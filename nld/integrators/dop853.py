@@ -37,11 +37,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (ACCEPTED, RETRY, judge, all_finite, changed, check_arguments, finish, front,
-                   initial_rows, initial_step, new_outputs, next_step, pi_next_step,
-                   rejected_shrink, rweight, save_state, step_cap, usable_step, write_outputs)
+from .core import (event_workspace, fire_and_restart, start, ACCEPTED, RETRY, judge, all_finite,
+                   check_arguments, finish, front, initial_rows, new_outputs, next_step,
+                   pi_accept, rejected_shrink, rweight, write_outputs)
 from .dopri5 import ROOT_RTOL
-from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
+from .events import (EVENT_SAMPLES, find_crossings, locate_earliest,  # noqa: F401
                      set_unknown_signs)
 
 # ---------------------------------------------------------------- Hairer's DOP853 coefficients
@@ -402,15 +402,8 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     yint = np.empty(n)
     K = np.empty((16, n))
     cont = np.empty((8, n))
-    gcur = np.empty(ne)
     zsave = np.empty(z.shape[0])
-    gnew = np.empty(ne)
-    gtmp = np.empty(ne)
-    gw = np.empty((4, ne))
-    sgn = np.zeros(ne, dtype=np.int64)
-    troot_a = np.empty(ne)
-    troot = np.empty(ne)
-    crossed = np.zeros(ne, dtype=np.bool_)
+    gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
     for i in range(n):
         y[i] = y0[i]
@@ -425,20 +418,8 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     n_rej = 0
     nfev = 0
 
-    rhs(t, y, p, z, K[0])
-    nfev += 1
-    if ne > 0:
-        events(t, y, p, z, gcur)
-        set_unknown_signs(gcur, sgn)
-
-    span = t_end - t0
-    hcap = step_cap(span, hmax)
-    if h0 > 0.0:
-        h = min(h0, hcap)
-    else:
-        h = initial_step(rhs, t0, y, K[0], p, z, atol, rtol, hcap, span, ytmp, K[1], 8.0)
-        nfev += 1
-    h = usable_step(h, span)
+    h, hcap, nfev = start(rhs, events, t0, y, K[0], p, z, atol, rtol, h0, hmax, t_end - t0, ytmp,
+                          K[1], 8.0, gcur, sgn)
 
     facold = FACOLD0
     reject = False
@@ -477,11 +458,10 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
                 break
             continue
 
-        hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
+        hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
         reject = False
         after_event = False
         new_branch = False
-        facold = max(err, FACOLD0)
         n_acc += 1
         # Hairer's stiffness detection: |h| * |f(ynew) - f(y12)| / |ynew - y12| at t_new
         if _stiff_step(h, K, ynew, ytmp):
@@ -602,17 +582,11 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
             h = hnew
             continue
 
-        save_state(z, zsave)
-        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
-                                 ev_k, ev_dir, n_ev, max_log)
-        # z may have changed: FSAL is invalid, recompute K[0] and g at the event point
-        after_event = True
-        # a mode change (on_event changed z) starts a new branch of the vector field
-        new_branch = changed(z, zsave)
-        rhs(t, y, p, z, K[0])
+        stop, n_ev, new_branch = fire_and_restart(
+            rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, ev_t, ev_k,
+            ev_dir, n_ev, max_log, K[0], gcur)
         nfev += 1
-        events(t, y, p, z, gcur)
-        set_unknown_signs(gcur, sgn)
+        after_event = True
         if stop:
             status = 1
             break

@@ -27,11 +27,12 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (ACCEPTED, RETRY, judge, BETA, EPS, FACC1, FACC1_EVENT, FACC2, FACMAX, FACMIN,  # noqa: F401
-                   FACOLD0, MAX_NONFINITE, MAX_STEPS, NON_FINITE, SAFE, STEP_UNDERFLOW, STOPPED,
-                   SUCCESS, EXPO_EVENT, changed, check_arguments, finish, front, initial_rows,
-                   initial_step, new_outputs, next_step, no_events, no_on_event, pi_next_step,
-                   rejected_shrink, rweight, save_state, step_cap, usable_step, write_outputs)
+# the statuses and controller constants are re-exported here for older imports
+from .core import (ACCEPTED, BETA, EPS, EXPO_EVENT, FACC1, FACC1_EVENT, FACC2,  # noqa: F401
+                   FACMAX, FACMIN, FACOLD0, MAX_NONFINITE, MAX_STEPS, NON_FINITE, RETRY, SAFE,
+                   STEP_UNDERFLOW, STOPPED, SUCCESS, check_arguments, event_workspace, finish,
+                   fire_and_restart, front, initial_rows, new_outputs, next_step, no_events,
+                   no_on_event, pi_accept, rejected_shrink, rweight, start, judge, write_outputs)
 from .events import (EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
                      fire_events, locate_earliest, set_unknown_signs)
 
@@ -192,15 +193,8 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     k6 = np.empty(n)
     k7 = np.empty(n)
     cont = np.empty((5, n))                 # dense output of the last step
-    gcur = np.empty(ne)
     zsave = np.empty(z.shape[0])
-    gnew = np.empty(ne)
-    gtmp = np.empty(ne)
-    gw = np.empty((4, ne))
-    sgn = np.zeros(ne, dtype=np.int64)      # tracked sign of g_k (0 = undetermined)
-    troot_a = np.empty(ne)
-    troot = np.empty(ne)
-    crossed = np.zeros(ne, dtype=np.bool_)
+    gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
     for i in range(n):
         y[i] = y0[i]
@@ -213,22 +207,8 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     n_steps = 0
     n_acc = 0
     n_rej = 0
-    nfev = 0
-
-    rhs(t, y, p, z, k1)
-    nfev += 1
-    if ne > 0:
-        events(t, y, p, z, gcur)
-        set_unknown_signs(gcur, sgn)
-
-    span = t_end - t0
-    hcap = step_cap(span, hmax)
-    if h0 > 0.0:
-        h = min(h0, hcap)
-    else:
-        h = initial_step(rhs, t0, y, k1, p, z, atol, rtol, hcap, span, ytmp, k2, 5.0)
-        nfev += 1
-    h = usable_step(h, span)
+    h, hcap, nfev = start(rhs, events, t0, y, k1, p, z, atol, rtol, h0, hmax, t_end - t0, ytmp,
+                          k2, 5.0, gcur, sgn)
 
     facold = FACOLD0
     reject = False
@@ -262,10 +242,9 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
             continue
 
         # accepted: PI (Lund-stabilized) proposal for the next step
-        hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
+        hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
         reject = False
         new_branch = False
-        facold = max(err, FACOLD0)
         n_acc += 1
 
         # ------------------------------------------------ event detection and location
@@ -324,17 +303,11 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
             t = t_star
             y, ynew = ynew, y
 
-        # fire every crossing whose root is within tol of t_star
-        save_state(z, zsave)
-        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
-                                 ev_k, ev_dir, n_ev, max_log)
-        # z may have changed: FSAL is invalid, recompute k1 and g at the event point
-        # a mode change (on_event changed z) starts a new branch of the vector field
-        new_branch = changed(z, zsave)
-        rhs(t, y, p, z, k1)
+        # fire every crossing whose root is within tol of t_star; restart with k1 and g there
+        stop, n_ev, new_branch = fire_and_restart(
+            rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, ev_t, ev_k,
+            ev_dir, n_ev, max_log, k1, gcur)
         nfev += 1
-        events(t, y, p, z, gcur)
-        set_unknown_signs(gcur, sgn)
         if stop:
             status = 1
             break

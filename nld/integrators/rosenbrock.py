@@ -34,9 +34,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (ACCEPTED, RETRY, judge, EPS, check_arguments, finish, front, initial_rows,
-                   initial_step, new_outputs, next_step, no_events, rweight, step_cap,
-                   usable_step, write_outputs)
+from .core import (event_workspace, start, ACCEPTED, RETRY, judge, EPS, check_arguments, finish,
+                   front, initial_rows, new_outputs, next_step, no_events, rweight, write_outputs)
 from .events import EVENT_SAMPLES, find_crossings, fire_events, locate_earliest, set_unknown_signs
 from .dopri5 import ROOT_RTOL
 
@@ -418,14 +417,7 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
     piv = np.zeros(n, dtype=np.int64)
     cont = np.empty((4, n))
     typ = np.empty(n)
-    gcur = np.empty(ne)
-    gnew = np.empty(ne)
-    gtmp = np.empty(ne)
-    gw = np.empty((4, ne))
-    sgn = np.zeros(ne, dtype=np.int64)
-    troot_a = np.empty(ne)
-    troot = np.empty(ne)
-    crossed = np.zeros(ne, dtype=np.bool_)
+    gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
     for i in range(n):
         y[i] = y0[i]
@@ -443,20 +435,8 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
     njac = 0
     nlu = 0
 
-    rhs(t, y, p, z, f0)
-    nfev += 1
-    if ne > 0:
-        events(t, y, p, z, gcur)
-        set_unknown_signs(gcur, sgn)
-
-    span = t_end - t0
-    hcap = step_cap(span, hmax)
-    if h0 > 0.0:
-        h = min(h0, hcap)
-    else:
-        h = initial_step(rhs, t0, y, f0, p, z, atol, rtol, hcap, span, ytmp, dy, 4.0)
-        nfev += 1
-    h = usable_step(h, span)
+    h, hcap, nfev = start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax, t_end - t0, ytmp,
+                          dy, 4.0, gcur, sgn)
 
     reject = False
     need_f0 = False      # f0 = f(t, y) is current

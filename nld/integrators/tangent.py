@@ -41,8 +41,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (ACCEPTED, RETRY, judge, BETA, FACC1, FACC2, FACOLD0, changed, finish,
-                   first_guess, next_step, pi_next_step, rejected_shrink, rweight, save_state,
+from .core import (event_workspace, ACCEPTED, RETRY, judge, BETA, FACC1, FACC2, FACOLD0, changed, finish,
+                   first_guess, next_step, pi_accept, rejected_shrink, rweight, save_state,
                    step_cap, usable_step)
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
                      A71, A73, A74, A75, A76, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EXPO1,
@@ -236,15 +236,8 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
     fplus = np.empty(n)
     zold = np.empty(nz)
     zcopy = np.empty(nz)
-    gcur = np.empty(ne)
-    gnew = np.empty(ne)
-    gtmp = np.empty(ne)
+    gcur, gnew, gtmp, gw, sgn, troot_a, troot_b, crossed = event_workspace(ne)
     gd = np.empty(ne)
-    gw = np.empty((4, ne))
-    sgn = np.zeros(ne, dtype=np.int64)
-    crossed = np.zeros(ne, dtype=np.bool_)
-    troot_a = np.empty(ne)
-    troot_b = np.empty(ne)
     zzero = np.zeros(nz)
     zdz = np.empty(nz)
 
@@ -375,10 +368,9 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                     status = verdict
                     break
                 continue
-            hnew = pi_next_step(h, fac11, facold, reject, BETA, FACC1, FACC2)
+            hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
             reject = False
             new_branch = False
-            facold = max(err, FACOLD0)
             n_acc += 1
 
             # ------------------------------------------ events: scan the step, earliest root
