@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError, SolveError
+from nld.integrators.core import as_solution
 
 __all__ = ["RevolutionRun", "revolution_maxima", "window_peak", "candidates"]
 
@@ -95,7 +96,8 @@ def window_peak(solve, observe_all, ncols, col, absolute, ta, tb, y_a, z_a, p, r
         zz = np.array(z_a, dtype=float)
         out = solve(float(ta), np.ascontiguousarray(y_a, dtype=float), tt, False, p, zz, rtol, atol,
                     0.0, hmax, int(max_steps), int(n_events), 64)
-        status, n_out, st, Y, Z = int(out[0]), int(out[3]), out[4], out[2], out[9]
+        out = as_solution(out)
+        status, n_out, st, Y, Z = int(out.status), int(out.n_out), out.stats, out.Y, out.Z
         steps += int(st[0])
         if status < 0 or n_out < tt.size:
             raise SolveError(f"refinement window [{ta:.9g}, {tb:.9g}] s: integration stopped "
@@ -202,11 +204,12 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
             te = np.ascontiguousarray(k * period + base)
             cap = steps_left if max_steps_per_rev is None else min(steps_left, int(max_steps_per_rev))
             out = solve(t, y, te, False, p, z, float(rtol), atol, h0, hmax, cap, n_ev, max_log)
-            st_k, t_k, Y, n_k, stats_k = int(out[0]), float(out[1]), out[2], int(out[3]), out[4]
-            Z = out[9]
+            out = as_solution(out)
+            st_k, t_k, Y, n_k, stats_k = int(out.status), float(out.t), out.Y, int(out.n_out), out.stats
+            Z = out.Z
             stats_k = np.asarray(stats_k, dtype=np.int64)[:5]
             st_main += stats_k
-            n_events_logged += int(out[8])
+            n_events_logged += int(out.n_ev)
             steps_left -= int(stats_k[0])
             rows = np.empty((n_k, ncols))
             observe_all(te, Y, Z, n_k, p, rows)

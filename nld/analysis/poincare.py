@@ -26,6 +26,7 @@ import pandas as pd
 
 from nld.errors import InputError, Interrupted
 from nld.settings import LYAPUNOV, POINCARE_SPANS, SECTIONS
+from nld.integrators.core import as_solution
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
@@ -228,8 +229,9 @@ def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0
     start = time.perf_counter()
     out = system.solve(0.0, y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
                        float(system.hmax), int(max_steps), int(system.n_events), 1000)
-    status, t_reached, Y, n_out, st = out[0], out[1], out[2], int(out[3]), out[4]
-    Zrows = out[9]
+    out = as_solution(out)
+    status, t_reached, Y, n_out, st = out.status, out.t, out.Y, int(out.n_out), out.stats
+    Zrows = out.Z
     table = pd.DataFrame({"rev": k[:n_out].astype(np.int64), "t": t_eval[:n_out]})
     for o in obs:
         if o != "t":
@@ -525,9 +527,10 @@ def _land(system, y, z, t0, t1, rtol, atol, hmax, max_steps):
     out = system.solve(float(t0), np.ascontiguousarray(y, dtype=float), np.array([float(t1)]), True,
                        system.p, zz, float(rtol), atol, 0.0, hmax, int(max_steps),
                        int(system.n_events), 1)
-    if out[0] < 0 or out[3] < 1:
+    out = as_solution(out)
+    if out.status < 0 or out.n_out < 1:
         raise RuntimeError("re-integration failed")
-    return out[2][0].copy(), zz
+    return out.Y[0].copy(), zz
 
 
 # ---------------------------------------------------------------------------------------------------

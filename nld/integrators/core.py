@@ -87,6 +87,11 @@ Z        (len(t_eval), nz) discrete state in force at each output row
 """
 
 
+def as_solution(out) -> "Solution":
+    """``out`` as a Solution (a user's ``solve=`` wrapper may return the plain 10-tuple)."""
+    return out if isinstance(out, Solution) else Solution(*out)
+
+
 # ================================================================ first-class function arguments
 _F = types.float64
 _I = types.int64

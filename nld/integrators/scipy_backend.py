@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from .core import Solution
 from .dopri5 import MAX_STEPS, NON_FINITE, STEP_UNDERFLOW
 
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
@@ -75,7 +76,7 @@ def solve_scipy(kernel, y0, z0, t_eval, p, method, rtol, atol, *, t0=None, hmax=
         Zo[i_out] = z
         i_out += 1
     if i_out >= n_eval:
-        return 0, float(t0), Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+        return Solution(0, float(t0), Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo)
     t_end = float(t_eval[-1])
 
     counter = [0]
@@ -185,4 +186,4 @@ def solve_scipy(kernel, y0, z0, t_eval, p, method, rtol, atol, *, t0=None, hmax=
             break
     stats[3] = max(stats[3], counter[0])
     stats[4] = n_ev
-    return status, float(t), Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+    return Solution(status, float(t), Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo)

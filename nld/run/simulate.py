@@ -18,6 +18,7 @@ from nld.kernel.compile import Kernel, compile_scene
 from nld.kernel.support import writable_vector
 from nld.progress import progress_bar
 from nld.settings import SIMULATE
+from nld.integrators.core import as_solution
 from nld.model.scene_model import Scene
 from nld.model.topology import GROUND
 
@@ -514,7 +515,7 @@ def integrate_chunked(solve, t0, y0, t_eval, land, p, z, rtol, atol, hmax, max_s
             else:
                 out = solve(t, y, te, land, p, z, rtol, atol, h0, hmax, steps_left, n_events, log_k,
                             int(event_samples))
-            st_k, t_k, Y_k, n_k, stats_k, evt_k, evk_k, evd_k, nlog_k, Z_k = out
+            st_k, t_k, Y_k, n_k, stats_k, evt_k, evk_k, evd_k, nlog_k, Z_k = as_solution(out)
             n_k = int(n_k)
             stats_k = np.asarray(stats_k, dtype=np.int64)
             stats = stats_k.copy() if stats is None else stats + stats_k

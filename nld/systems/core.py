@@ -39,6 +39,7 @@ from numba import njit
 
 from nld.errors import InputError, SolveError
 from nld.integrators import NATIVE_METHODS, bind, kernel_solver, method_status_message
+from nld.integrators.core import as_solution
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
 from nld.integrators.events import EVENT_SAMPLES, check_event_samples
 from nld.settings import LYAPUNOV
@@ -316,11 +317,11 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
     out = system.solve(float(t0), y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
                        float(system.hmax if hmax is None else hmax), int(max_steps),
                        int(system.n_events), 1)
-    status, t_reached, Y, n_out = out[0], out[1], out[2], out[3]
-    if status != 0 or n_out < 1:
-        raise SolveError(f"{system.name}: " + method_status_message(system.method, status, t_reached,
-                                                                      out[4]))
-    return Y[0].copy(), z
+    out = as_solution(out)
+    if out.status != 0 or out.n_out < 1:
+        raise SolveError(f"{system.name}: " + method_status_message(system.method, out.status, out.t,
+                                                                      out.stats))
+    return out.Y[0].copy(), z
 
 
 @njit
@@ -585,7 +586,8 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
     out = system.solve(float(t0 + transient), y, t_eval, False, system.p, z, float(rtol),
                        rtol * system.scales, 0.0, float(system.hmax), DEFAULT_MAX_STEPS,
                        int(system.n_events), 1)
-    if out[0] != 0:
-        raise SolveError(f"{system.name}: " + method_status_message(system.method, out[0], out[1],
-                                                                      out[4]))
-    return t_eval, out[2]
+    out = as_solution(out)
+    if out.status != 0:
+        raise SolveError(f"{system.name}: " + method_status_message(system.method, out.status, out.t,
+                                                                      out.stats))
+    return t_eval, out.Y
