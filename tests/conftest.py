@@ -8,21 +8,20 @@ files fill the other worker's time. Only the order changes; every test still run
 """
 from __future__ import annotations
 
-# cold-run wall time per file, longest first (measured on 2 cores with an empty kernel cache)
-LONGEST_FIRST = [          # seconds in a cold run at stop 20 (sum of setup + call, --durations=0)
-    "test_integrators.py",       # 262
-    "test_tangent.py",           # 220
-    "test_hybrid.py",            # 201
-    "test_study_zhang2013.py",   # 152
-    "test_tangent_flows.py",     # 145 (less since: one tangent solver per set of user functions)
-    "test_study_rhee1996.py",    # 136
-    "test_simulator.py",         # 79
-    "test_lyapunov.py",          # 63
-    "test_scenes_family.py",     # 47
-    "test_poincare.py",          # 45
-    "test_contact_laws.py",      # 41
-    "test_dopri5.py",            # 35
-    "test_bad_input.py",         # 24
+# cold-run wall time per file, longest first (measured on 2 cores with empty kernel and numba caches)
+LONGEST_FIRST = [          # seconds in a cold run at stop 22 (sum of setup + call, --durations=0)
+    "test_tangent.py",           # 50 (176 at stop 21, before the integrators were compiled once)
+    "test_hybrid.py",            # 47 (261)
+    "test_study_rhee1996.py",    # 47 (173)
+    "test_study_zhang2013.py",   # 43 (140)
+    "test_integrators.py",       # 25 (244)
+    "test_simulator.py",         # 21 (78)
+    "test_study_olyaei2012.py",  # 20 (31)
+    "test_chaos_map.py",         # 20 (23)
+    "test_lyapunov.py",          # 13 (13)
+    "test_scenes_family.py",     # 10 (60)
+    "test_compile_once.py",      # 10 (new)
+    "test_study_chaos_onset.py", # 10 (12)
 ]
 
 

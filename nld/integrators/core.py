@@ -6,10 +6,11 @@ their stage computation, error estimate and dense output, and call the helpers b
 everything else (the verdict on a step ``judge``, the PI controller ``pi_next_step``, the shrink
 after a rejection, the initial step, landing on output times, output writing, the counters), as
 scipy's ``_ivp/rk.py`` sits over ``base.py`` and diffrax's ``_solver/`` over
-``_step_size_controller/``. The helpers are ordinary compiled functions (not numba IR inlining,
-which re-typed their bodies at every call site and cost seconds of compilation per integrator):
-those that take a model function are compiled with the integrator that calls them, the others are
-cached on their own and shared by every integrator; LLVM inlines them where it pays.
+``_step_size_controller/``. The helpers on scalars are ordinary compiled functions, cached on
+their own and shared by every integrator. Those that take several arrays and run every step (the
+stages, the event location, output writing) are inlined by numba (``inline='always'``): called
+out of line, the reference counting of their array arguments made a step 15 % slower
+(measured: benchmarks/bench_builds.py); inlining costs compile time once per machine.
 
 **Compiled once per machine.** The integrators take the scene's (or user's) ``rhs``, ``events``,
 ``on_event`` (and the tangent JVPs) as *first-class function* arguments of a fixed signature
@@ -325,7 +326,7 @@ def copy_row(z, Zo, i):
         Zo[i, j] = z[j]
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z):
     """Rows for t_eval in (t, t_hi]: y_hi at t_hi itself, else the dense output ``interp`` of the
     step [t, t + h] (coefficients ``cont``). Returns the next output index."""

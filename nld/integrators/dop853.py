@@ -239,7 +239,7 @@ MAX_RELOCATE = 8    # event location: retakes of a step to land on a root (see d
 
 
 # ================================================================ DOP853 kernels
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _stages(rhs, t, h, t_new, y, K, ytmp, ynew, p, z):
     """One DOP853 step from (t, y) with K[0] = f(t, y): fills K[1..11], ynew and
     K[12] = f(t_new, ynew) (FSAL)."""
@@ -312,7 +312,7 @@ def _stiff_step(h, K, ynew, y12):
     return False
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
     """Three extra stages K[13..15] and the coefficients of the 7th-order continuous extension:
     cont = [y, F0..F6] (K[0] = f(t, y), K[12] = f(t + h, ynew) must be current)."""
@@ -338,7 +338,7 @@ def _dense(rhs, t, h, y, ynew, K, ytmp, cont, p, z):
             cont[4 + r, i] = h * acc
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _hermite_screen(events, n_samples, t, h, y, ynew, K, yint, gtmp, sgn, p, z):
     """Whether some event function with a tracked side has left it at one of ``n_samples``
     equally spaced interior points t + j h / (n_samples + 1) of the step, evaluated on the cubic

@@ -83,7 +83,7 @@ D7 = 69997945.0 / 29380423.0
 EXPO1 = 0.2 - 0.75 * BETA      # err^EXPO1: the PI controller's exponent for order 5 (Hairer)
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
     """One DOPRI5 step from (t, y) with k1 = f(t, y): fills k2..k7, ynew; k7 = f(t_new, ynew)."""
     n = y.shape[0]

@@ -25,9 +25,10 @@ function closer together than the spacing of the samples (h / (n_samples + 1), o
 REFINE inside a piece that is refined) that fall between two samples; no finite sampling can
 exclude that (docs/integrator.md, "Events").
 
-Compilation: ``events`` and ``interp`` arrive as first-class functions (nld.integrators.core), so
-the location functions are compiled once per machine and shared by every integrator (inlined into
-each, they took about half of each integrator's compile time).
+Compilation: ``events`` and ``interp`` arrive as first-class functions (nld.integrators.core) and
+the location functions are inlined into each integrator (numba ``inline='always'``): compiled out
+of line they saved about 4 s of each integrator's one-time compilation but made every step slower
+(the reference counting of their array arguments; docs/performance.md, "Compile time").
 
 ``n_samples = 0`` reproduces the ends-only location of nld before issue 13 item 5 bit for bit.
 DOP853, whose dense output costs three rhs evaluations, calls this only for steps that a scan of
@@ -70,7 +71,7 @@ def find_crossings(gnew, sgn, crossed):
     return any_crossed
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def bracket_root(events, interp, k, s, t, h, ta, tb, ga, gb, cont, yint, gtmp, p, z, tol):
     """Illinois (modified regula falsi) for g_k on the dense output ``interp(theta, cont, out)``
     of the step [t, t + h], within [ta, tb] where g_k leaves side s (ga = g_k(ta) on side s,
@@ -125,7 +126,7 @@ def bracket_root(events, interp, k, s, t, h, ta, tb, ga, gb, cont, yint, gtmp, p
     return a, b
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def first_crossing_piece(events, interp, t, h, tl, tr, n_pieces, sgn, gl, gr, ga, gb, cont, yint,
                          p, z):
     """Split [tl, tr] (inside the step [t, t + h] with dense output ``cont``) into ``n_pieces``
@@ -154,7 +155,7 @@ def first_crossing_piece(events, interp, t, h, tl, tr, n_pieces, sgn, gl, gr, ga
     return False, tr, tr
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def locate_earliest(events, interp, n_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp, gw,
                     p, z, tol, crossed, troot_a, troot_b):
     """The earliest root in (t, t_new] of any event function that leaves its tracked side, on the
@@ -204,7 +205,7 @@ def locate_earliest(events, interp, n_samples, t, h, t_new, gcur, gnew, sgn, con
     return True, a_star, t_star, first
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t, ev_k, ev_dir,
                 n_ev, max_log):
     """Call on_event for every crossing whose root is within tol of t_star, log it and flip its

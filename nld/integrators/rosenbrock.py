@@ -149,7 +149,7 @@ def lu_solve(a, piv, b):
 
 
 # ================================================================ Rodas kernels
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _same_sides(events, t, ytmp, p, z, gbase, gtmp, ne):
     """Whether every event function that is nonzero at the base point keeps its sign at (t, ytmp)."""
     if ne == 0:
@@ -185,7 +185,7 @@ def _pick_difference(fp, fm, f0, dp, dm, out):
     return finite
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def fd_jacobian(rhs, events, t, y, f0, p, z, typ, hscale, J, fx, ytmp, fp, fm, col, gbase, gtmp,
                 ne):
     """J = df/dy and fx = df/dt at (t, y), f0 = f(t, y), by differences of the rhs inside numba.
@@ -272,7 +272,7 @@ def _build_matrix(J, fac, E):
         E[i, i] += fac
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _stages(rhs, t, h, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z):
     """One Rodas4 step with the factored E = I/(h*gamma) - J: fills AK[0..5] and ynew
     (5 rhs evaluations). AK[5] is the error estimate."""

@@ -106,7 +106,7 @@ def _scaled_norm(w, scales):
     return math.sqrt(s)
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _stage_eval(rhs, rhs_jvp, ts, ytmp, p, z, W, Wz, KW, s, KY, wtmp, want_div, trace_tmp, unit):
     """KY[s] = f(ts, ytmp); KW[s, c] = J (wtmp_c, Wz_c); returns tr J when want_div."""
     k = W.shape[0]
@@ -148,7 +148,7 @@ def _div_step(h, trs):
     return h * s
 
 
-@njit(cache=False)
+@njit(cache=False, inline='always')
 def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus, fplus,
                crossed, troot_b, t_fire, sgn, diag, gtmp, gd, unit, wtmp, zcopy, zdz, zzero):
     """Map every tangent vector through the event ``first`` (module docstring)."""
