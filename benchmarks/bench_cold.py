@@ -29,6 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _results import write_table  # noqa: E402 (benchmarks/_results.py)
+
 HERE = Path(__file__).resolve().parent
 
 USER_LORENZ = """
@@ -127,10 +129,7 @@ def main(argv=None) -> int:
         "| command | cold (s) | target | new scene (s) | warm (s) | last line of output |",
         "|---|---|---|---|---|---|",
     ]
-    text = "\n".join(head + rows) + "\n"
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(a.out).write_text(text)
-    print(f"wrote {a.out}")
+    write_table(a.out, head, rows)
     return 0
 
 

@@ -26,6 +26,8 @@ import sys
 import time
 from pathlib import Path
 
+from _results import write_table  # noqa: E402 (benchmarks/_results.py)
+
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
@@ -142,10 +144,7 @@ def main(argv=None) -> int:
         "| scene | run | indirect (ms) | inlined (ms) | indirect / inlined | max abs dY | inlined compile (s) |",
         "|---|---|---|---|---|---|---|",
     ]
-    text = "\n".join(head + rows) + "\n"
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(a.out).write_text(text)
-    print(f"wrote {a.out}")
+    write_table(a.out, head, rows)
     return 0
 
 
