@@ -310,7 +310,7 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
             system.z0 = np.array(sec.z_final, float)
             r = largest_exponent(system, an.get("estimator", "tangent"),
                                  total=an["lyap_revs"] * sec.period, rtol=an["rtol"],
-                                 d0=an.get("d0"))
+                                 d0=an.get("d0"), tangent_err=an.get("tangent_err"))
             lam, unc = float(r.exponent), float(r.uncertainty)
             per, uper = float(r.per_revolution), float(r.uncertainty_per_revolution)
             est = dict(getattr(r, "settings", {}) or {})

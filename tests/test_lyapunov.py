@@ -251,3 +251,17 @@ def test_scene_dop853_reports_stiffness_instead_of_an_exponent():
     s = S.SceneSystem("slider_crank", PERIODIC, method="dop853")
     with pytest.raises(SolveError, match="dop853: the problem became stiff"):
         lyapunov_benettin(s, transient=30 * s.period, total=20 * s.period, rtol=1e-10)
+
+
+def test_largest_exponent_passes_the_tangent_error_control():
+    """The studies choose the tangent vectors' error control through largest_exponent; the
+    result's settings say which ran, and on Lorenz both controls give the published exponent
+    (0.9056, Sprott) within their uncertainties."""
+    from nld.analysis.lyapunov import largest_exponent
+    out = {}
+    for te in (True, False):
+        r = largest_exponent(S.lorenz(), "tangent", total=200.0, transient=10.0, tangent_err=te)
+        assert r.settings["tangent_err"] is te
+        assert abs(r.exponent - 0.9056) < 3 * r.uncertainty + 0.02, (te, r.exponent, r.uncertainty)
+        out[te] = r
+    assert out[True].settings["rtol"] == out[False].settings["rtol"]

@@ -883,7 +883,8 @@ ESTIMATORS = ("tangent", "benettin")
 
 
 def largest_exponent(system, estimator: str = "tangent", *, total, transient=0.0, rtol=None,
-                     d0=None, seed: int = 0, progress=False) -> LyapunovResult:
+                     d0=None, seed: int = 0, progress=False,
+                     tangent_err: bool | None = None) -> LyapunovResult:
     """lambda_1 of ``system`` by the named estimator, as the sweeps and studies call it.
 
     estimator: "tangent" (default: :func:`lyapunov_tangent`, tangent dynamics with saltation,
@@ -892,12 +893,15 @@ def largest_exponent(system, estimator: str = "tangent", *, total, transient=0.0
     (s); transient: discarded first (s, default 0: a sweep starts from the end of a section,
     already on the attractor); rtol: default the estimator's (1e-10). The result's
     ``settings`` hold everything used; ``nld.output.report.estimator_text`` turns them into one line.
+    tangent_err (tangent estimator): the tangent vectors in the step-size control (default
+    ``nld.settings.TANGENT.tangent_err``, True; docs/lyapunov.md, "Error control").
     """
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator = {estimator!r}: must be one of {', '.join(ESTIMATORS)}")
     if estimator == "tangent":
         return lyapunov_tangent(system, transient=transient, total=total, rtol=rtol, seed=seed,
-                                progress=progress)
+                                progress=progress,
+                                tangent_err=TANGENT.tangent_err if tangent_err is None else tangent_err)
     return lyapunov_benettin(system, transient=transient, total=total, rtol=rtol, d0=d0,
                              seed=seed, progress=progress)
 
