@@ -397,9 +397,7 @@ def test_integrator_compiled_once_per_machine(tmp_path):
         import numpy as np
         from numba import njit
         from nld.integrators import dopri5
-        from nld.integrators.core import inlined
-from nld.integrators.dopri5 import dopri5_core
-from nld.integrators.dopri5 import interp as dopri5_interp
+        from nld.integrators.dopri5 import dopri5_core
 
         if sys.argv[1] == "a":
             @njit
