@@ -261,11 +261,11 @@ def stroboscopic_rhs(rhs, y0, p, period: float, *, transient_revs: int = POINCAR
     """Stroboscopic map of any T-periodic ODE given as a numba ``rhs(t, y, p, z, dy)``.
 
     The ODE is wrapped in :class:`nld.systems.ContinuousSystem` (DOPRI5 of
-    ``nld.integrators.dopri5`` with ``no_events``/``no_on_event``). A user rhs compiles the
-    integrator once per process (5-20 s) unless ``solve`` is given: a ``@njit(cache=True)``
-    wrapper ``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
-    max_log)`` returning ``dopri5(rhs, no_events, no_on_event, ...)`` with rhs a module global,
-    which numba loads from its disk cache (see nld/integrators/dopri5.py). Example, the forced
+    ``nld.integrators.dopri5`` with ``no_events``/``no_on_event``). The integrator is compiled
+    once per machine (nld.integrators.core); a user rhs costs only its own compilation. ``solve``
+    (optional): ``solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps, n_events,
+    max_log)`` returning a ``nld.integrators.Solution``, e.g. ``nld.integrators.bind("dop853",
+    rhs)`` for another method. Example, the forced
     Duffing oscillator::
 
         from nld.systems.core import duffing_rhs

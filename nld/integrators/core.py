@@ -165,17 +165,25 @@ def _install_jit_address_hook():
     except ImportError:                      # pragma: no cover - other numba layouts
         return False
     orig = getattr(ft, "_get_jit_address", None)
-    if orig is None or getattr(orig, "_nld_hook", False):
+    orig_w = getattr(ft, "_get_wrapper_address", None)
+    if orig is None or orig_w is None or getattr(orig, "_nld_hook", False):
         return orig is not None
 
     def _get_jit_address(func, sig):
-        f = getattr(func, "__jit_address__", None)
-        if f is not None:
-            return f()
+        if type(func) is NativeFunction:
+            return func._jit_addr
         return orig(func, sig)
+
+    def _get_wrapper_address(func, sig):
+        # numba's own checks the signature's precision first (about 2 us a call, for every
+        # function argument of every call); a NativeFunction's signature is precise by making
+        if type(func) is NativeFunction:
+            return func._c_addr
+        return orig_w(func, sig)
 
     _get_jit_address._nld_hook = True
     ft._get_jit_address = _get_jit_address
+    ft._get_wrapper_address = _get_wrapper_address
     return True
 
 
