@@ -97,7 +97,7 @@ def one_scene(label, name, overrides, revs, repeats, rtol, rtol_tan):
             W = (np.eye(S.n)[:1] * S.scales).copy()
             return (0.0, S.y0.copy(), S.z0.copy(), W, np.zeros((1, S.z0.size)), marks, S.p,
                     rtol_tan, atol_t, S.scales, 0.0, float(S.hmax), 10**8, S.n_events, True,
-                    False, np.zeros(8), np.zeros((marks.size, 1)), EVENT_SAMPLES)
+                    False, np.zeros(8), np.zeros((marks.size, 1)), EVENT_SAMPLES, True)
         fns = (m.rhs, m.rhs_jvp, m.events, m.events_jvp, m.on_event, m.on_event_jvp)
         tind = lambda: dopri5_tangent(*fns, *targs())  # noqa: E731
         tinl = lambda: ttw(*fns, interp, *targs())  # noqa: E731

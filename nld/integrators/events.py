@@ -109,8 +109,8 @@ def bracket_root(events, interp, k, s, t, h, ta, tb, ga, gb, cont, yint, gtmp, p
         interp((c - t) / h, cont, yint)
         events(c, yint, p, z, gtmp)
         fc = gtmp[k]
-        if fc == 0.0:
-            return a, c
+        if fc == 0.0:           # on the root: both ends there (a stays on the old side's
+            return c, c         # closure; the tangent integrator evaluates f- at a_star)
         if fc * fb > 0.0:          # c is on b's side: b moves, a is retained
             b = c
             fb = fc

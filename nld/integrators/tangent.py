@@ -64,6 +64,16 @@ def new_diag():
     return d
 
 
+def crossing_diag(n_events: int) -> np.ndarray:
+    """A diag array with the per-event block: ``N_DIAG`` summary entries, then for each event
+    the smallest |dg/dt| of its upward crossings (inf: none; for a scene's penetration event the
+    normal approach speed at contact onset, m/s), then each event's count of upward crossings."""
+    d = np.zeros(N_DIAG + 2 * int(n_events))
+    d[DG_MINRATIO] = np.inf
+    d[N_DIAG:N_DIAG + int(n_events)] = np.inf
+    return d
+
+
 @njit(cache=True)
 def _orthonormalise(W, Wz, scales, logs_row):
     """Modified Gram-Schmidt (twice) of the scaled rows W[c]/scales; Wz rows follow."""
@@ -167,6 +177,11 @@ def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus,
         events_jvp(t, y, p, zold, gtmp, 0.0, unit, zzero, gd)
         scale += abs(gd[first] * fminus[i])
         unit[i] = 0.0
+    if sgn[first] > 0 and diag.shape[0] >= N_DIAG + 2 * ne:
+        # per event: the smallest |gdot| of its upward crossings, and their count
+        if abs(gdot) < diag[N_DIAG + first]:
+            diag[N_DIAG + first] = abs(gdot)
+        diag[N_DIAG + ne + first] += 1.0
     ratio = abs(gdot) / scale if scale > 0.0 else 0.0
     if ratio < diag[DG_MINRATIO]:
         diag[DG_MINRATIO] = ratio
@@ -202,7 +217,7 @@ def _saltation(events_jvp, on_event_jvp, first, t, y, p, z, zold, W, Wz, fminus,
 @njit(cache=True)
 def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, interp_fn, t0, y0, z, W,
                         Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events,
-                        tangent_err, want_div, diag, logs, event_samples):
+                        tangent_err, want_div, diag, logs, event_samples, orthonormalise):
     """Integrate (y, W, Wz) from t0 through every time in ``marks`` (ascending, > t0),
     re-orthonormalising the tangent vectors at each (module docstring). The jitted core, compiled
     once for first-class function arguments (nld.integrators.core); call ``dopri5_tangent``.
@@ -399,18 +414,22 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                         gcur[q] = gnew[q]
                     set_unknown_signs(gcur, sgn)
                 if t >= marks[i_mark]:
-                    _orthonormalise(W, Wz, scales, logs[i_mark])
+                    if orthonormalise:
+                        _orthonormalise(W, Wz, scales, logs[i_mark])
+                        for c in range(k):      # the vectors changed: their derivatives too
+                            for i in range(n):
+                                wtmp[i] = W[c, i]
+                            rhs_jvp(t, y, p, z, KY[0], 0.0, wtmp, Wz[c], KW[0, c])
+                        nfev += 1
                     i_mark += 1
-                    for c in range(k):      # the vectors changed: their derivatives too
-                        for i in range(n):
-                            wtmp[i] = W[c, i]
-                        rhs_jvp(t, y, p, z, KY[0], 0.0, wtmp, Wz[c], KW[0, c])
-                    nfev += 1
                 h = hnew
                 continue
 
             # ------------------------------------------ event at the earliest root t_star
             # the field on the old branch, at the left end of the bracket
+            # (within 2 tol of the root: a bracket whose old-side end did not move while the
+            # root was refined from the new side can end far before it)
+            a_star = max(a_star, t_star - 2.0 * tol)
             interp((a_star - t) / h, cont, ya)
             rhs(a_star, ya, p, z, fminus)
             interp((t_star - t) / h, cont, yb)     # on the new side (for f+)
@@ -472,10 +491,11 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
         events(t, y, p, z, gcur)
         set_unknown_signs(gcur, sgn)
         if t >= marks[i_mark]:
-            _orthonormalise(W, Wz, scales, logs[i_mark])
+            if orthonormalise:
+                _orthonormalise(W, Wz, scales, logs[i_mark])
+                tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div,
+                                  trace_tmp, unit)
             i_mark += 1
-            tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div,
-                              trace_tmp, unit)
         if stop:
             status = 1
             break
@@ -510,7 +530,7 @@ def _in_place(a, field: str) -> np.ndarray:
 
 def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z, W, Wz,
                    marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events, tangent_err,
-                   want_div, diag, logs, event_samples=EVENT_SAMPLES):
+                   want_div, diag, logs, event_samples=EVENT_SAMPLES, orthonormalise=True):
     """DOPRI5 with tangent vectors and saltation (``dopri5_tangent_core``; module docstring).
 
     rhs, events, on_event as for dopri5 (events / on_event None: no events); rhs_jvp,
@@ -518,6 +538,9 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
     (``jvp(t, y, p, z, out, t_d, y_d, z_d, out_d)``, ``on_event_jvp(k, direction, t, y, p, z,
     t_d, y_d, z_d)``), numba functions converted here to first-class function arguments, so the
     integrator is compiled once per machine. z, W, Wz, diag and logs are updated in place.
+    orthonormalise False: the vectors are left alone at the marks (logs untouched), so W after
+    one period started from the identity is the monodromy matrix (``nld.systems.derived``).
+    diag may carry the per-event block of ``crossing_diag``.
     Returns (status, t_reached, y, n_marks_done, stats, h_next)."""
     return dopri5_tangent_core(
         native(rhs, RHS_SIG, "rhs"), native(rhs_jvp, JVP_SIG, "rhs_jvp"),
@@ -529,18 +552,20 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
         float(t0), vector(y0), state_vector(z), _in_place(W, "W"), _in_place(Wz, "Wz"),
         vector(marks), vector(p), float(rtol), vector(atol), vector(scales), float(h0),
         float(hmax), int(max_steps), int(n_events), bool(tangent_err), bool(want_div),
-        state_vector(diag, "diag"), _in_place(logs, "logs"), int(event_samples))
+        state_vector(diag, "diag"), _in_place(logs, "logs"), int(event_samples),
+        bool(orthonormalise))
 
 
 def bind_tangent(rhs, rhs_jvp, events=None, events_jvp=None, on_event=None, on_event_jvp=None):
     """``solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
-    n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES)``: the tangent
-    DOPRI5 with these functions (a kernel's ``solve_tangent``, a user system's). Nothing is
-    compiled here."""
+    n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES,
+    orthonormalise=True)``: the tangent DOPRI5 with these functions (a kernel's
+    ``solve_tangent``, a user system's). Nothing is compiled here."""
     def solve_tangent(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
-                      n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES):
+                      n_events, tangent_err, want_div, diag, logs, event_samples=EVENT_SAMPLES,
+                      orthonormalise=True):
         return dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0, y0, z,
                               W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps, n_events,
-                              tangent_err, want_div, diag, logs, event_samples)
+                              tangent_err, want_div, diag, logs, event_samples, orthonormalise)
     solve_tangent.functions = (rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp)
     return solve_tangent

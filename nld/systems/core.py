@@ -130,6 +130,10 @@ class ContinuousSystem:
             with the state at each renormalisation); default none. Scenes set them.
     period_name: what one period is called in results ("forcing period"; a scene:
             "revolution").
+    init_modes: optional ``init_modes(t, y, p, z)`` setting the discrete labels of z (contact
+            and stick/slip modes, branches; not the memory entries) consistently with (t, y),
+            in place: used where a state is set that no integration reached (a Newton iterate
+            of ``nld.analysis.orbits``). Scenes set the kernel's.
     event_samples: interior points of every step's dense output at which the event functions
             are evaluated, so that two sign changes within one step are both located (default
             ``nld.integrators.EVENT_SAMPLES``, 3; 0: the step's ends only;
@@ -145,8 +149,10 @@ class ContinuousSystem:
                  period: float | None = None, *, z0=None, events=None, on_event=None,
                  n_events: int = 0, solve=None, hmax: float | None = None, time_unit: str = "s",
                  t0: float = 0.0, method: str = "dopri5", jacobian=None, jvp: str = "auto",
-                 memory=(), period_name: str = "forcing period", event_samples: int | None = None):
+                 memory=(), period_name: str = "forcing period", event_samples: int | None = None,
+                 init_modes=None):
         self.method = check_system_method(method)
+        self.init_modes = init_modes
         self.event_samples = (EVENT_SAMPLES if event_samples is None
                               else check_event_samples(event_samples))
         if jvp not in ("auto", "autodiff", "fd"):
@@ -557,6 +563,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
                             event_samples=event_samples)
     sysm.scene = scene
     sysm.kernel = kern
+    sysm.init_modes = kern.init_modes
     sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
                                   if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
                                  dtype=np.int64)

@@ -101,22 +101,23 @@ def _builtin_rhs(t, y, p, z, dy):
 
 
 def _solve_tangent_builtin(t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0, hmax, max_steps,
-                           n_events, tangent_err, want_div, diag, logs, event_samples):
+                           n_events, tangent_err, want_div, diag, logs, event_samples,
+                           orthonormalise=True):
     return dopri5_tangent(_builtin_rhs, _builtin_rhs_jvp, no_events, no_events_jvp, no_on_event,
                           no_on_event_jvp, t0, y0, z, W, Wz, marks, p, rtol, atol, scales, h0,
                           hmax, max_steps, n_events, tangent_err, want_div, diag, logs,
-                          event_samples)
+                          event_samples, orthonormalise)
 
 
 class _BuiltinTangent:
     def __init__(self, code: int):
         self.code = float(code)
 
-    def __call__(self, t0, y0, z, W, Wz, marks, p, *args):
+    def __call__(self, t0, y0, z, W, Wz, marks, p, *args, **kwargs):
         pp = np.empty(p.shape[0] + 1)
         pp[0] = self.code
         pp[1:] = p
-        return _solve_tangent_builtin(t0, y0, z, W, Wz, marks, pp, *args)
+        return _solve_tangent_builtin(t0, y0, z, W, Wz, marks, pp, *args, **kwargs)
 
 
 # ---------------------------------------------------------------- user systems
@@ -255,11 +256,14 @@ _USER_TANGENT: dict = {}
 
 def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_err: bool = True,
                 want_div: bool = False, h0: float = 0.0, max_steps: int = 50_000_000,
-                diag=None) -> TangentRun:
+                diag=None, orthonormalise: bool = True) -> TangentRun:
     """Integrate ``system`` and the tangent vectors W (k, n) (with discrete parts Wz (k, nz))
     from t0 through every time in ``marks``, re-orthonormalising at each (scaled norm of
-    ``system.scales``). rtol with ``system.tolerance(rtol)`` as for every integration of the
-    system. Raises SolveError if the integration fails (the message says where and why)."""
+    ``system.scales``; ``orthonormalise=False``: the vectors are carried unchanged, so from
+    W = identity they end as the rows of the transposed state-transition matrix). rtol with
+    ``system.tolerance(rtol)`` as for every integration of the system. diag: None, or an array
+    from ``nld.integrators.tangent.crossing_diag`` (accumulated in place). Raises SolveError if
+    the integration fails (the message says where and why)."""
     solve, _ = tangent_functions(system)
     y = np.array(y, dtype=float)
     z = np.array(z, dtype=float)
@@ -278,7 +282,7 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
     out = solve(float(t0), y, z, W, Wz, marks, system.p, float(rtol), atol, system.scales,
                 float(h0), float(system.hmax), int(max_steps), int(system.n_events),
                 bool(tangent_err), bool(want_div), dg, logs,
-                int(getattr(system, "event_samples", EVENT_SAMPLES)))
+                int(getattr(system, "event_samples", EVENT_SAMPLES)), bool(orthonormalise))
     status, t_reached, y_out, n_done, stats, h_next = out
     if status not in (0, 1):
         from nld.integrators import method_status_message

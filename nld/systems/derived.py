@@ -1,0 +1,480 @@
+"""Derived systems: the stroboscopic map and the Poincaré map of a flow, as maps with Jacobians.
+
+In the spirit of DynamicalSystemsBase.jl's ``StroboscopicMap`` / ``PoincareMap`` (Datseris 2018;
+Datseris & Parlitz 2022, ch. 4), a flow seen once per period or once per crossing of a section is
+itself a system: :class:`StroboscopicMap` advances a forced flow (a scene: one crank revolution)
+by whole periods, :class:`PoincareMap` advances an autonomous flow to its next crossing of a
+hyperplane. Both take a state and return the next one, and on request the map's Jacobian -- for the
+stroboscopic map the *monodromy matrix* of the period -- from the tangent integrator
+(``nld.integrators.tangent``), which maps the tangent vectors through every event by its saltation
+matrix (Müller 1995; Leine & Nijmeijer 2004, sec. 7; di Bernardo et al. 2008, ch. 2.5). The
+periodic-orbit, continuation and control analyses (``nld.analysis.orbits``,
+``nld.analysis.continuation``) work on these maps; :func:`as_map` also wraps a
+:class:`~nld.systems.DiscreteMap` (numba map with its Jacobian) in the same interface.
+
+The state of a derived map (its "augmented state" x) is the flow's continuous state y followed by
+the *memory* entries of the discrete state z (``system.memory``: the approach velocity that a
+Lankarani-Nikravesh contact law records at each contact onset). The memory is a state of the
+motion: between onsets it is constant and it sets the contact damping, so a periodic orbit must
+reproduce it, and its direction is part of the monodromy (docs/orbits.md, "Memory state"). The
+other entries of z (contact and stick/slip modes, switched-load branches, the dependent coordinates'
+Newton warm start) are labels that follow from x; a map carries them from one step to the next.
+
+Units: the state in the flow's SI units (a scene: m, rad, m/s, rad/s; the memory: m/s); the
+period of a stroboscopic map in s.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nld.errors import InputError, SolveError
+from nld.integrators import method_status_message
+from nld.integrators.core import as_solution
+from nld.integrators.tangent import N_DIAG, DG_DIV, DG_LOGDET, DG_GRAZE, crossing_diag
+
+__all__ = ["MapStep", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
+           "contact_events"]
+
+# event log length of the plain (no-Jacobian) step: enough for any number of onsets per period
+_MAX_LOG = 4096
+
+
+@dataclass
+class MapStep:
+    """One application of a derived map.
+
+    x:  the image (augmented state: y then the memory entries of z), SI units.
+    z:  the full discrete state after the step (labels carried on).
+    M:  the map's Jacobian dx'/dx ((N, N), N = len(x)) when asked, else None. For a
+        stroboscopic map the monodromy matrix of the period, saltation at every event included;
+        for a Poincaré map the projected Jacobian (it maps into the section's tangent space).
+    onsets: upward crossings of each contact event (a scene: contact onsets per clearance joint).
+    min_approach: per contact event the smallest |dg/dt| at an upward crossing (a scene: the
+        normal approach speed at contact onset, m/s; inf where none); with M only.
+    log_det_saltation, divergence: sum of ln|det S| over the saltations and the integral of
+        tr(df/dy) over the step (with M and ``divergence=True``); the Liouville check of det M.
+    grazing: events whose crossing speed was zero to round-off (no time-shift term).
+    time: the flow time the step took (s): the period, or the return time of a Poincaré map.
+    """
+    x: np.ndarray
+    z: np.ndarray
+    M: np.ndarray | None = None
+    onsets: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    min_approach: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    log_det_saltation: float = math.nan
+    divergence: float = math.nan
+    grazing: int = 0
+    time: float = math.nan
+
+
+def contact_events(system) -> np.ndarray:
+    """Indices of the events that are contacts: a scene's penetration events (one per clearance
+    joint, upward = onset); for another flow ``system.contact_events`` if set, else all events."""
+    kern = getattr(system, "kernel", None)
+    if kern is not None:
+        return np.arange(len(kern.topo.clearance), dtype=np.int64)
+    ce = getattr(system, "contact_events", None)
+    if ce is not None:
+        return np.array(ce, dtype=np.int64)
+    return np.arange(int(getattr(system, "n_events", 0)), dtype=np.int64)
+
+
+def label_entries(system) -> np.ndarray:
+    """Entries of z that are discrete labels (modes, branches, contact flags): not memory and, for
+    a scene, not the dependent coordinates' warm start. A periodic orbit must return to them."""
+    nz = system.z0.size
+    skip = set(int(i) for i in getattr(system, "memory", ()))
+    kern = getattr(system, "kernel", None)
+    if kern is not None:
+        nc, nd = len(kern.topo.clearance), len(kern.topo.dependent)
+        skip |= set(range(nc, nc + nd))
+    return np.array([i for i in range(nz) if i not in skip], dtype=np.int64)
+
+
+class _FlowMap:
+    """What the two derived maps share: the augmented state and the tangent run."""
+
+    is_map = True
+    is_derived = True
+    time_unit = "iteration"
+
+    def __init__(self, system, rtol: float | None):
+        from nld.settings import LYAPUNOV
+        if getattr(system, "is_map", False):
+            raise InputError(f"{system.name} is already a map: a derived map needs a flow")
+        self.flow = system
+        self.rtol = float(LYAPUNOV.rtol if rtol is None else rtol)
+        if not (0.0 < self.rtol < 1e-2):
+            raise InputError(f"rtol = {rtol!r}: must be in (0, 1e-2)")
+        self.memory = np.array(getattr(system, "memory", np.zeros(0, dtype=np.int64)),
+                               dtype=np.int64)
+        self.n_y = system.n
+        self.n = system.n + self.memory.size
+        self.p = system.p
+        self.z0 = system.z0.copy()
+        self.y0 = self.pack(system.y0, system.z0)
+        self.contacts = contact_events(system)
+        self.labels = label_entries(system)
+        mem_names = [f"z{i}" for i in self.memory]
+        kern = getattr(system, "kernel", None)
+        if kern is not None:
+            mem_names = [f"{kern.topo.clearance[i]}.v_onset" for i in self.memory]
+        self.state_names = list(system.state_names) + mem_names
+        self.scales = np.concatenate([system.scales, self._memory_scales()])
+        self.angle_states = getattr(system, "angle_states", np.zeros(0, dtype=np.int64))
+
+    def _memory_scales(self) -> np.ndarray:
+        """A scale for each memory entry (an approach velocity, m/s): the largest rate scale of a
+        scene (clearance x crank speed), else 1."""
+        if self.memory.size == 0:
+            return np.zeros(0)
+        s = self.flow.scales
+        v = float(np.max(s[s.size // 2:])) if getattr(self.flow, "kernel", None) is not None \
+            else 1.0
+        return np.full(self.memory.size, v)
+
+    # ------------------------------------------------------------------ augmented state
+    def pack(self, y, z) -> np.ndarray:
+        """x = (y, z[memory])."""
+        y = np.asarray(y, dtype=float).ravel()
+        z = np.asarray(z, dtype=float).ravel()
+        if y.size != self.n_y:
+            raise InputError(f"y: {y.size} values given, the flow has {self.n_y} states")
+        return np.concatenate([y, z[self.memory] if self.memory.size else np.zeros(0)])
+
+    def unpack(self, x, z, relabel: bool = False):
+        """(y, z) from x and a discrete state (copied) whose labels are kept, or with
+        ``relabel`` set from y by the flow's ``init_modes`` where it has one."""
+        x = np.asarray(x, dtype=float).ravel()
+        z = np.array(z, dtype=float)
+        y = x[:self.n_y].copy()
+        init = getattr(self.flow, "init_modes", None)
+        if relabel and init is not None:
+            init(self.t0, np.ascontiguousarray(y), self.flow.p, z)
+        if self.memory.size:
+            z[self.memory] = x[self.n_y:]
+        return y, z
+
+    def difference(self, a, b) -> np.ndarray:
+        """a - b with angle differences brought into [-pi, pi) (whole turns are one state)."""
+        d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+        idx = self.angle_states
+        if idx.size:
+            d[idx] -= 2.0 * math.pi * np.floor((d[idx] + math.pi) / (2.0 * math.pi))
+        return d
+
+    # ------------------------------------------------------------------ integration
+    def _plain(self, y, z, t0, t1, t_eval=None):
+        """Integrate the flow from (t0, y, z) to t1 (landing there), counting contact onsets;
+        with t_eval also return the states there (no landing on them)."""
+        sysm = self.flow
+        atol = sysm.tolerance(self.rtol)
+        z = np.array(z, dtype=float)
+        te = np.array([float(t1)]) if t_eval is None else np.asarray(t_eval, dtype=float)
+        out = as_solution(sysm.solve(float(t0), np.ascontiguousarray(y, dtype=float), te,
+                                     t_eval is None, sysm.p, z, self.rtol, atol, 0.0,
+                                     float(sysm.hmax), int(50_000_000), int(sysm.n_events),
+                                     _MAX_LOG))
+        if out.status != 0 or out.n_out < te.size:
+            raise SolveError(f"{sysm.name}: " + method_status_message(sysm.method, out.status,
+                                                                        out.t, out.stats))
+        onsets = np.zeros(self.contacts.size, dtype=np.int64)
+        k, d = out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev]
+        for j, e in enumerate(self.contacts):
+            onsets[j] = int(np.count_nonzero((k == e) & (d > 0)))
+        if out.n_ev >= _MAX_LOG:
+            onsets[:] = -1          # the log overflowed: unknown
+        return out, z, onsets
+
+    def _tangent(self, y, z, t0, t1, divergence: bool = False):
+        """(y(t1), z(t1), M, step info) from the tangent integrator, vectors from the identity."""
+        from nld.systems.tangent import run_tangent
+        sysm = self.flow
+        n, m = self.n_y, self.memory.size
+        N = n + m
+        W = np.zeros((N, n))
+        W[:n, :n] = np.eye(n)
+        Wz = np.zeros((N, z.size))
+        for j, i in enumerate(self.memory):
+            Wz[n + j, i] = 1.0
+        ne = int(sysm.n_events)
+        diag = crossing_diag(ne)
+        run = run_tangent(sysm, y, z, W, Wz, t0, [t1], self.rtol, want_div=divergence,
+                          diag=diag, orthonormalise=False)
+        if run.status != 0:
+            raise SolveError(f"{sysm.name}: the tangent integration stopped at t = {run.t:.6g} s "
+                             f"(an on_event stop) before the end of the step")
+        M = np.empty((N, N))
+        M[:n, :] = run.W.T
+        for j, i in enumerate(self.memory):
+            M[n + j, :] = run.Wz[:, i]
+        onsets = np.array([int(diag[N_DIAG + ne + e]) for e in self.contacts], dtype=np.int64)
+        mins = np.array([diag[N_DIAG + e] for e in self.contacts])
+        info = dict(onsets=onsets, min_approach=mins, log_det_saltation=float(diag[DG_LOGDET]),
+                    divergence=float(diag[DG_DIV]) if divergence else math.nan,
+                    grazing=int(diag[DG_GRAZE]))
+        return run.y, run.z, M, info
+
+
+class StroboscopicMap(_FlowMap):
+    """The flow of a forced system (a scene: the crank revolution) sampled once every
+    ``periods`` forcing periods: x_{k+1} = P(x_k), P the flow map from the phase t0 (the
+    system's ``t0``) over periods * T, T the forcing period (s).
+
+    system: a :class:`~nld.systems.ContinuousSystem` with a period (a scene system: the crank
+    period). rtol: the integrations' relative tolerance (absolute: ``system.tolerance(rtol)``),
+    default ``nld.settings.LYAPUNOV.rtol``. Time restarts at t0 every step (the forcing is
+    T-periodic), so the map is the same at every step and round-off does not grow with the
+    revolution count.
+    """
+
+    def __init__(self, system, periods: int = 1, rtol: float | None = None):
+        super().__init__(system, rtol)
+        if system.period is None:
+            raise InputError(f"{system.name} has no forcing period: a stroboscopic map needs a "
+                             f"forced flow (use PoincareMap for an autonomous one)")
+        if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or periods < 1:
+            raise InputError(f"periods = {periods!r}: must be an integer >= 1")
+        self.periods = int(periods)
+        self.T = float(system.period) * self.periods
+        self.t0 = float(system.t0)
+        self.name = f"stroboscopic map of {system.name}"
+        self.period_name = getattr(system, "period_name", "forcing period")
+
+    def step(self, x, z=None, *, jacobian: bool = False, divergence: bool = False,
+             relabel: bool = False) -> MapStep:
+        """P(x) (and its monodromy with ``jacobian``); z: the discrete state whose labels go with
+        x (default the system's z0; ``relabel``: labels set from x by the flow's init_modes).
+        Raises SolveError if the integration fails."""
+        z = self.z0 if z is None else z
+        y, zz = self.unpack(x, z, relabel)
+        t0, t1 = self.t0, self.t0 + self.T
+        if jacobian:
+            y1, z1, M, info = self._tangent(y, zz, t0, t1, divergence)
+        else:
+            out, z1, onsets = self._plain(y, zz, t0, t1)
+            y1, M, info = out.Y[0].copy(), None, dict(onsets=onsets)
+        from nld.systems.core import wrap_angles
+        y1 = wrap_angles(self.flow, y1)
+        return MapStep(self.pack(y1, z1), z1, M, time=self.T, **info)
+
+    def __call__(self, x, z=None):
+        s = self.step(x, z)
+        return s.x, s.z
+
+    def trajectory(self, x, z=None, n_samples: int = 200):
+        """The flow's states along one step from x: (t (s), Y (n_samples, n))."""
+        z = self.z0 if z is None else z
+        y, zz = self.unpack(x, z)
+        te = self.t0 + self.T * np.arange(n_samples) / (n_samples - 1)
+        out, _, _ = self._plain(y, zz, self.t0, te[-1], t_eval=te)
+        return te - self.t0, out.Y[:n_samples].copy()
+
+    def __repr__(self):
+        return f"StroboscopicMap({self.flow.name!r}, periods={self.periods}, rtol={self.rtol:g})"
+
+
+class PoincareMap(_FlowMap):
+    """The first return of an autonomous flow to the hyperplane normal . y = offset, crossed in
+    ``direction`` (+1: normal . f > 0).
+
+    The crossing is bracketed on the dense output (``dt`` apart, s; default 1/50 of the flow's
+    ``hmax`` or 0.01) after a dead time ``t_min`` (s, default 2 dt) and located by Newton on the
+    crossing time (landing integrations, |normal . y - offset| <= rtol * scale). Its Jacobian is
+    the projection (I - f n^T / (n . f)) Phi of the flow's state-transition matrix Phi to the
+    return time (the return time's dependence on the start), which maps into the section's
+    tangent space; its multipliers (``nld.analysis.orbits``) are those of that restriction.
+    """
+
+    def __init__(self, system, normal, offset: float = 0.0, direction: int = 1, *,
+                 dt: float | None = None, t_min: float | None = None, t_max: float = 1e4,
+                 rtol: float | None = None):
+        super().__init__(system, rtol)
+        nrm = np.array(normal, dtype=float).ravel()
+        if nrm.size != system.n or not np.all(np.isfinite(nrm)) or not np.any(nrm):
+            raise InputError(f"normal = {normal!r}: must be {system.n} finite numbers, not all 0")
+        if direction not in (1, -1):
+            raise InputError(f"direction = {direction!r}: must be +1 or -1")
+        self.normal = nrm
+        self.offset = float(offset)
+        self.direction = int(direction)
+        self.dt = float(dt) if dt is not None else (system.hmax / 50.0 if system.hmax > 0
+                                                    else 0.01)
+        if not (self.dt > 0 and math.isfinite(self.dt)):
+            raise InputError(f"dt = {dt!r}: must be a positive time (s)")
+        self.t_min = 2.0 * self.dt if t_min is None else float(t_min)
+        self.t_max = float(t_max)
+        self.t0 = float(system.t0)
+        self.name = f"Poincaré map of {system.name}"
+        self.period_name = "return"
+        # an orthonormal basis of the section's tangent space (for the multipliers)
+        q, _ = np.linalg.qr(np.column_stack([nrm] + [np.eye(system.n)[i]
+                                                      for i in range(system.n)]))
+        self.plane_basis = q[:, 1:system.n]
+
+    def _g(self, y):
+        return float(self.normal @ y) - self.offset
+
+    def _crossing(self, y, z):
+        """(t*, y(t*), z(t*)) of the first crossing after t_min."""
+        t = self.t0
+        chunk = 64
+        while t - self.t0 < self.t_max:
+            te = t + self.dt * np.arange(1, chunk + 1)
+            out, _, _ = self._plain(y, z, t, te[-1], t_eval=te)
+            prev_t, prev_y, prev_z = t, y, z
+            for i in range(te.size):
+                yi = out.Y[i]
+                g0, g1 = self._g(prev_y), self._g(yi)
+                if (te[i] - self.t0 > self.t_min and self.direction * g0 < 0.0
+                        and self.direction * g1 >= 0.0):
+                    return self._refine(prev_t, prev_y, prev_z, te[i], g0, g1)
+                prev_t, prev_y, prev_z = te[i], yi, out.Z[i].copy()
+            t, y, z = te[-1], out.Y[-1].copy(), out.Z[-1].copy()
+        raise SolveError(f"{self.flow.name}: no crossing of the section within t_max = "
+                         f"{self.t_max:g} s")
+
+    def _refine(self, ta, ya, za, tb, ga, gb):
+        """Landing integrations from (ta, ya) with the Illinois method on the crossing time."""
+        scale = float(np.abs(self.normal) @ self.flow.scales)
+        a, b = ta, tb
+        fa, fb = ga, gb
+        side = 0
+        for _ in range(60):
+            tc = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+            if not (a < tc < b):
+                tc = 0.5 * (a + b)
+            if tc == ta:
+                yc, zc = ya.copy(), np.array(za)
+            else:
+                out, zc, _ = self._plain(ya, za, ta, tc)
+                yc = out.Y[0].copy()
+            fc = self._g(yc)
+            if abs(fc) <= self.rtol * scale or b - a < 1e-14 * max(1.0, abs(b)):
+                return tc, yc, zc
+            if (fc < 0) == (fa < 0):
+                a, fa = tc, fc
+                if side == -1:
+                    fb *= 0.5
+                side = -1
+            else:
+                b, fb = tc, fc
+                if side == 1:
+                    fa *= 0.5
+                side = 1
+        return tc, yc, zc
+
+    def step(self, x, z=None, *, jacobian: bool = False, divergence: bool = False,
+             relabel: bool = False) -> MapStep:
+        """The next crossing from x (and the projected Jacobian with ``jacobian``)."""
+        z = self.z0 if z is None else z
+        y, zz = self.unpack(x, z, relabel)
+        tc, yc, zc = self._crossing(y, zz)
+        info = {}
+        M = None
+        if jacobian:
+            y1, z1, M, info = self._tangent(y, zz, self.t0, tc, divergence)
+            f = np.empty(self.n_y)
+            self.flow.rhs(tc, np.ascontiguousarray(y1), self.p, z1, f)
+            nf = float(self.normal @ f)
+            if nf == 0.0:
+                raise SolveError(f"{self.flow.name}: the flow is tangent to the section at the "
+                                 f"crossing (n . f = 0)")
+            # the first-order correction onto the plane (the tangent run's own crossing)
+            y1 = y1 - f * self._g(y1) / nf
+            P = np.eye(self.n_y) - np.outer(f, self.normal) / nf
+            M[:self.n_y, :] = P @ M[:self.n_y, :]
+            yc, zc = y1, z1
+        return MapStep(self.pack(yc, zc), zc, M, time=tc - self.t0, **info)
+
+    def __call__(self, x, z=None):
+        s = self.step(x, z)
+        return s.x, s.z
+
+    def __repr__(self):
+        return (f"PoincareMap({self.flow.name!r}, normal={self.normal.tolist()}, "
+                f"offset={self.offset:g}, direction={self.direction:+d})")
+
+
+class NumbaMap:
+    """A :class:`~nld.systems.DiscreteMap` in the derived maps' interface (no discrete state):
+    ``step(x, jacobian=True)`` gives f(x) and its Jacobian (the map's ``jacobian`` or central
+    finite differences, steps 1e-6 * scales)."""
+
+    is_map = True
+    is_derived = False
+    period_name = "iteration"
+
+    def __init__(self, system):
+        self.flow = None
+        self.system = system
+        self.name = system.name
+        self.n = self.n_y = system.n
+        self.p = system.p
+        self.y0 = system.y0.copy()
+        self.z0 = np.zeros(0)
+        self.memory = np.zeros(0, dtype=np.int64)
+        self.contacts = np.zeros(0, dtype=np.int64)
+        self.labels = np.zeros(0, dtype=np.int64)
+        self.scales = system.scales
+        self.state_names = list(system.state_names)
+        self.angle_states = np.zeros(0, dtype=np.int64)
+        self.rtol = 0.0
+        self._tmp = np.empty(self.n)
+        self._checked = False
+
+    def pack(self, y, z=None):
+        return np.asarray(y, dtype=float).ravel().copy()
+
+    def unpack(self, x, z=None):
+        return np.asarray(x, dtype=float).ravel().copy(), np.zeros(0)
+
+    def difference(self, a, b):
+        return np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+
+    def _jac(self, x):
+        J = np.zeros((self.n, self.n))
+        jac = self.system.jacobian
+        if jac is not None:
+            jac(x, self.p, J)
+            return J
+        f = self.system.f
+        fp, fm = np.empty(self.n), np.empty(self.n)
+        for j in range(self.n):
+            h = 1e-6 * self.scales[j]
+            xp, xm = x.copy(), x.copy()
+            xp[j] += h
+            xm[j] -= h
+            f(xp, self.p, fp)
+            f(xm, self.p, fm)
+            J[:, j] = (fp - fm) / (2.0 * h)
+        return J
+
+    def step(self, x, z=None, *, jacobian: bool = False, divergence: bool = False,
+             relabel: bool = False) -> MapStep:
+        x = np.ascontiguousarray(x, dtype=float)
+        out = np.empty(self.n)
+        self.system.f(x, self.p, out)
+        return MapStep(out, np.zeros(0), self._jac(x) if jacobian else None, time=1.0)
+
+    def __call__(self, x, z=None):
+        return self.step(x).x, np.zeros(0)
+
+    def __repr__(self):
+        return f"NumbaMap({self.name!r})"
+
+
+def as_map(system, rtol: float | None = None):
+    """The map an orbit analysis works on: a derived map as it is, a DiscreteMap wrapped
+    (:class:`NumbaMap`), a forced flow's one-period :class:`StroboscopicMap` at ``rtol``."""
+    if isinstance(system, (_FlowMap, NumbaMap)):
+        return system
+    if getattr(system, "is_map", False):
+        return NumbaMap(system)
+    if getattr(system, "period", None) is None:
+        raise InputError(f"{system.name} is an autonomous flow: give a PoincareMap(system, normal, "
+                         f"offset) to find its periodic orbits")
+    return StroboscopicMap(system, 1, rtol)
