@@ -55,10 +55,10 @@ def cmd_poincare(args) -> int:
         if e.partial is None or out is None:
             raise
         prov = dict(e.partial.provenance)
-        prov.update(partial=True, command=getattr(args, "command_line", None))
-        path = save_table(e.partial.table, out, prov)
+        prov.update(command=getattr(args, "command_line", None))
+        path = save_table(e.partial.table, out, prov, partial=True)
         raise Interrupted(str(e), kept=f"wrote the partial section ({e.kept}) to {path}, marked "
-                                       "partial in its provenance") from None
+                                       f"partial in its provenance ({out} not replaced)") from None
     from nld.model.scene import load_scene
     n = period_of(sec.points, tol=args.period_tol,
                   scale=section_scales(load_scene(args.scene, args.overrides), sec.observables))
@@ -66,8 +66,10 @@ def cmd_poincare(args) -> int:
     prov.update(period_detected=n, period_tol=args.period_tol,
                 command=getattr(args, "command_line", None))
     if out is not None:
-        path = save_table(sec.table, out, prov)
-        print(f"wrote {len(sec.table)} section points to {path}")
+        # a failed run writes what it has beside the target (out itself is left alone)
+        path = save_table(sec.table, out, prov, partial=not sec.success)
+        print(f"wrote {len(sec.table)} section points to {path}"
+              + ("" if sec.success else f", marked partial ({out} not replaced)"))
     else:
         print(sec.table.to_string(index=False, float_format=lambda v: f"{v:.9g}"))
     print(f"period: {n if n else 'none found (aperiodic or longer than 16)'} "

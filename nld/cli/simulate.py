@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from nld.cli.args import count_arg, number_arg, print_error, print_interrupted, rtol_arg, scene_args
+from nld.cli.args import count_arg, number_arg, print_error, rtol_arg, scene_args
 from nld.errors import InputError, Interrupted
 from nld.settings import SIMULATE
 
@@ -79,22 +79,29 @@ def cmd_simulate(args) -> int:
                     stats=dict(stats))
     prov.update(kind="ideal" if args.ideal else "simulate", samples_per_rev=args.samples_per_rev,
                 revs=args.revs if args.t_end is None else None, command=args.command_line)
+    failed = interrupted is None and status < 0
+    path = None
+    if out is not None:
+        # the target is replaced only by a complete, successful run; anything else goes beside it
+        path = save_table(table, out, prov, partial=interrupted is not None or failed)
     if interrupted is not None:
-        if out is not None:
-            path = save_table(table, out, prov)
-            kept = f"wrote the partial table ({interrupted.kept}) to {path}, marked partial in its provenance"
+        if path is not None:
+            kept = (f"wrote the partial table ({interrupted.kept}) to {path}, marked partial in its "
+                    f"provenance ({out} not replaced)")
         else:
             kept = f"nothing written (no --out); {interrupted.kept} computed"
-        print_interrupted(f"simulate stopped at t = {res.t_reached:.6g} s of {t_end:.6g} s: {kept}")
-        return 130
-    if out is not None:
-        path = save_table(table, out, prov)
+        raise Interrupted(f"simulate stopped at t = {res.t_reached:.6g} s of {t_end:.6g} s",
+                          kept=f"simulate stopped at t = {res.t_reached:.6g} s of {t_end:.6g} s: {kept}",
+                          partial=res) from None
+    if path is not None and not failed:
         print(f"wrote {len(table)} rows x {table.shape[1]} columns to {path} "
               f"(provenance in {path.name}.json); wall time {wall:.3g} s")
-    else:
+    elif path is None:
         print_summary(table, message, stats, events, wall, None if args.ideal else prov.get("wall"))
-    if status < 0:
-        print_error(f"integration failed: {message}")
+    if failed:
+        where = (f"; the partial table ({len(table)} rows, up to t = {prov.get('t_reached', float('nan')):.6g} s) "
+                 f"is in {path}, marked partial ({out} not replaced)" if path is not None else "")
+        print_error(f"integration failed: {message}{where}")
         return 1
     return 0
 

@@ -7,6 +7,16 @@ Two formats, chosen by the file suffix:
 * ``.csv``: the provenance is stored in the sidecar ``PATH.json`` (e.g. ``run.csv.json``).
 
 Any other suffix -> :class:`~nld.errors.InputError` naming the allowed ones.
+
+The one writer of nld's output files (tables, their sidecars, sweep points, study outputs,
+figures, reports): :func:`write_atomic` writes a temporary file in the target's directory and
+renames it over the target only when the whole file was written, so a reader (or a later run)
+sees the old file or the new one, never a mixture; :func:`write_all` does the same for several
+files that belong together (a table and its sidecar: nothing is replaced unless every one was
+written). A failed or interrupted run does not replace its target at all: its partial result
+goes beside it, to :func:`partial_path` (``run.csv`` -> ``run.partial.csv``), marked
+``"partial": true`` in its provenance (``save_table(..., partial=True)``). A file that cannot be
+written -> InputError naming that file (the sidecar when it is the sidecar that failed).
 """
 from __future__ import annotations
 
@@ -19,8 +29,9 @@ import pandas as pd
 
 from nld.errors import InputError
 
-__all__ = ["SUFFIXES", "METADATA_KEY", "check_table_path", "sidecar_path", "save_table", "load_table",
-           "provenance_json"]
+__all__ = ["SUFFIXES", "METADATA_KEY", "check_table_path", "sidecar_path", "partial_path", "save_table",
+           "load_table", "provenance_json", "write_atomic", "write_all", "save_figure",
+           "FIGURE_SUFFIXES", "check_figure_path"]
 
 SUFFIXES = (".csv", ".parquet")
 METADATA_KEY = b"nld"
@@ -40,6 +51,13 @@ def sidecar_path(path) -> Path:
     """``run.csv`` -> ``run.csv.json``."""
     p = Path(path)
     return p.with_name(p.name + ".json")
+
+
+def partial_path(path) -> Path:
+    """Where the partial result of a failed or interrupted run goes instead of ``path``:
+    ``run.csv`` -> ``run.partial.csv`` (beside it, same suffix)."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}.partial{p.suffix}")
 
 
 def json_default(o):
@@ -64,9 +82,20 @@ def provenance_json(provenance: dict, indent: int | None = None) -> str:
                       allow_nan=True)
 
 
-def write_atomic(path: Path, write) -> Path:
-    """``write(tmp)`` then rename tmp to ``path``: readers see the whole file or none."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+def _tmp_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def _cannot_write(path: Path, e: OSError, note: str = "") -> InputError:
+    return InputError(f"cannot write {path}: {e.strerror or e}{note}")
+
+
+def write_atomic(path, write) -> Path:
+    """``write(tmp)`` then rename tmp to ``path``: readers see the whole file or none, and an
+    existing ``path`` is replaced only by a file written to its end (a failed ``write`` leaves it
+    as it was and removes tmp). Raises what ``write`` raises (OSError for the disk's errors)."""
+    path = Path(path)
+    tmp = _tmp_path(path)
     try:
         write(tmp)
         os.replace(tmp, path)
@@ -76,31 +105,111 @@ def write_atomic(path: Path, write) -> Path:
     return path
 
 
-def save_table(df: pd.DataFrame, path, provenance: dict | None) -> Path:
-    """Write ``df`` to ``path`` (``.parquet`` or ``.csv``) with its provenance; returns the path.
+def write_all(files, note_after: str = "") -> list[Path]:
+    """Write several files that belong together: ``files`` is a list of ``(path, write)``; every
+    ``write(tmp)`` runs first, and only when all of them succeeded are the files renamed into
+    place (nothing is replaced otherwise; the temporary files are removed). A failure ->
+    InputError naming the file whose writing failed, and saying that nothing was replaced."""
+    done = []
+    try:
+        for path, write in files:
+            path = Path(path)
+            tmp = _tmp_path(path)
+            done.append((path, tmp))
+            try:
+                write(tmp)
+            except OSError as e:
+                others = [str(p) for p, _ in files if Path(p) != path]
+                kept = (f"; nothing replaced ({', '.join([str(path)] + others)} unchanged)"
+                        if others else "; the file is unchanged")
+                raise _cannot_write(path, e, kept) from None
+        for path, tmp in done:
+            try:
+                os.replace(tmp, path)
+            except OSError as e:
+                raise _cannot_write(path, e) from None
+    finally:
+        for _, tmp in done:
+            if tmp.exists():
+                try:
+                    tmp.unlink()
+                except OSError:
+                    pass
+    return [p for p, _ in done]
 
-    Missing parent directories are created. An unsupported suffix or a file that cannot be written
-    -> InputError (one line).
+
+def _write_text(path: Path, text: str) -> None:
+    path.write_text(text, encoding="utf-8")
+
+
+def save_table(df: pd.DataFrame, path, provenance: dict | None, *, partial: bool = False) -> Path:
+    """Write ``df`` to ``path`` (``.parquet`` or ``.csv``) with its provenance; returns the path
+    written.
+
+    partial: the result of a failed or interrupted run: written to :func:`partial_path` (``path``
+    itself is left alone) with ``"partial": true`` in its provenance. The table and its sidecar are
+    written together (:func:`write_all`: both or neither replaced). Missing parent directories are
+    created. An unsupported suffix or a file that cannot be written -> InputError (one line
+    naming the file that failed).
     """
     p = check_table_path(path)
+    if partial:
+        p = partial_path(p)
+        provenance = dict(provenance or {}, partial=True)
     text = provenance_json(provenance)
     pretty = provenance_json(provenance, indent=2) + "\n"
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
-        if p.suffix.lower() == ".parquet":
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-            table = pa.Table.from_pandas(df, preserve_index=False)
-            meta = dict(table.schema.metadata or {})
-            meta[METADATA_KEY] = text.encode("utf-8")
-            table = table.replace_schema_metadata(meta)
-            write_atomic(p, lambda tmp: pq.write_table(table, tmp))
-        else:
-            write_atomic(p, lambda tmp: df.to_csv(tmp, index=False))
-        side = sidecar_path(p)
-        write_atomic(side, lambda tmp: tmp.write_text(pretty, encoding="utf-8"))
     except OSError as e:
-        raise InputError(f"cannot write {p}: {e.strerror or e}") from None
+        raise InputError(f"cannot write {p}: cannot create its directory ({e.strerror or e})") from None
+    if p.suffix.lower() == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+        table = pa.Table.from_pandas(df, preserve_index=False)
+        meta = dict(table.schema.metadata or {})
+        meta[METADATA_KEY] = text.encode("utf-8")
+        table = table.replace_schema_metadata(meta)
+
+        def write_table(tmp):
+            pq.write_table(table, tmp)
+    else:
+        def write_table(tmp):
+            df.to_csv(tmp, index=False)
+    write_all([(p, write_table), (sidecar_path(p), lambda tmp: _write_text(tmp, pretty))])
+    return p
+
+
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_figure_path(path, option: str = "--plot") -> Path:
+    """The path of a figure to write, checked before a long run: a .png, .pdf or .svg file whose
+    directory exists or can be created and is writable; else InputError naming ``option``."""
+    p = Path(path).expanduser()
+    if p.suffix.lower() not in FIGURE_SUFFIXES:
+        raise InputError(f"{option} = {str(path)!r}: give a .png, .pdf or .svg file")
+    if p.is_dir():
+        raise InputError(f"{option} = {str(path)!r}: is a directory; give a file name")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"{option} = {str(path)!r}: cannot create its directory "
+                         f"({e.strerror or e})") from None
+    if not os.access(p.parent, os.W_OK):
+        raise InputError(f"{option} = {str(path)!r}: its directory {p.parent} is not writable")
+    return p
+
+
+def save_figure(fig, path, **kw) -> Path:
+    """``fig.savefig`` to ``path`` (its suffix gives the format) through :func:`write_atomic`;
+    a file that cannot be written -> InputError naming it. ``kw``: more arguments of savefig."""
+    p = Path(path).expanduser()
+    fmt = p.suffix.lower().lstrip(".") or None
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(p, lambda tmp: fig.savefig(tmp, format=fmt, **kw))
+    except OSError as e:
+        raise _cannot_write(p, e) from None
     return p
 
 

@@ -129,14 +129,21 @@ def study_workers(default: int) -> int:
 
 
 def source_date_epoch() -> int | None:
-    """``SOURCE_DATE_EPOCH`` as an int, or None when unset or empty (ValueError if not an integer)."""
+    """``SOURCE_DATE_EPOCH`` as an int, or None when unset or empty; InputError (a ValueError) when
+    it is not a whole number of seconds since 1970 between 0 and the end of year 9999."""
     v = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
     if not v:
         return None
+    from nld.errors import InputError
     try:
-        return int(v)
+        n = int(v)
     except ValueError:
-        raise ValueError(f"SOURCE_DATE_EPOCH = {v!r}: must be an integer (seconds since 1970)") from None
+        raise InputError(f"SOURCE_DATE_EPOCH = {v!r}: must be a whole number of seconds since "
+                         "1970-01-01 UTC (e.g. 1700000000), or unset") from None
+    if not 0 <= n <= 253402300799:
+        raise InputError(f"SOURCE_DATE_EPOCH = {v!r}: must be between 0 and 253402300799 "
+                         "(seconds since 1970-01-01 UTC, up to the end of year 9999)")
+    return n
 
 
 def _fmt_cell(v, float_format) -> str:
@@ -489,10 +496,10 @@ class Report:
         epoch = source_date_epoch()
         pages = self._title_pages(epoch) + self._pages
         n = len(pages)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        from nld.output.io import write_atomic
         import matplotlib
-        try:
+
+        def write(tmp):
             with matplotlib.rc_context(STYLE), PdfPages(tmp, metadata=self.metadata()) as pdf:
                 png = os.environ.get("NLD_REPORT_PNG_DIR")      # page images, for reviewing
                 for i, fig in enumerate(pages, start=1):
@@ -502,10 +509,12 @@ class Report:
                         Path(png).mkdir(parents=True, exist_ok=True)
                         fig.savefig(Path(png) / f"{self.path.stem}-{i:02d}.png", dpi=60)
                     _release(fig)
-            os.replace(tmp, self.path)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(self.path, write)       # the old PDF stays until the new one is whole
+        except OSError as e:
+            from nld.errors import InputError
+            raise InputError(f"cannot write {self.path}: {e.strerror or e}") from None
         self.pages_written = n
         self._pages.clear()
         return self.path
