@@ -28,6 +28,15 @@ The cure has two parts:
 Worker processes of sweeps and chaos maps ignore SIGINT (:func:`ignore_in_worker`): a terminal's
 Ctrl-C reaches the whole process group, and the main process ends the pool itself (finished
 points are already on disk; the points in progress are lost and run again on resume).
+
+SIGTERM (``kill``, a batch scheduler, a container stop, systemd) is handled like SIGINT: the
+command line's handler and :func:`deferred` take both, so a SIGTERM'd run stops the same way,
+ends its pool and keeps what finished; :func:`received` says which signal it was (the command
+line exits with 128 + its number: 130 for SIGINT, 143 for SIGTERM). It reaches only the main
+process, which ends its workers (:func:`end_pool`: SIGTERM, then SIGKILL after 2 s). A worker
+also dies with its parent when the parent is killed outright (SIGKILL, a crash: nothing in it
+runs): on Linux the kernel sends it SIGKILL then (``PR_SET_PDEATHSIG``, set by
+:func:`ignore_in_worker`), so no worker is left computing and writing point files.
 """
 from __future__ import annotations
 
@@ -37,9 +46,23 @@ import signal
 import sys
 import threading
 
-__all__ = ["deferred", "Deferral", "install", "ignore_in_worker", "in_main_thread"]
+__all__ = ["deferred", "Deferral", "install", "ignore_in_worker", "in_main_thread", "received",
+           "SIGNALS", "end_pool"]
 
 _NUMBA_DIR = None
+
+# the signals that stop a run cleanly (SIGTERM is missing on some platforms' signal module)
+SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM") if hasattr(signal, n))
+_RECEIVED: list[int] = []
+
+
+def received() -> int | None:
+    """The last stopping signal (SIGINT or SIGTERM) that arrived in this process, or None."""
+    return _RECEIVED[-1] if _RECEIVED else None
+
+
+def _note(signum) -> None:
+    _RECEIVED.append(int(signum))
 
 
 def in_main_thread() -> bool:
@@ -71,6 +94,7 @@ class Deferral:
         self.active = False
 
     def _handler(self, signum, frame):
+        _note(signum)
         self.requested = True
 
 
@@ -79,7 +103,8 @@ _DEFERRAL_STACK: list[Deferral] = []
 
 @contextlib.contextmanager
 def deferred():
-    """Within the block SIGINT sets ``Deferral.requested`` instead of raising (main thread only;
+    """Within the block SIGINT (and SIGTERM where :func:`install` took it) sets
+    ``Deferral.requested`` instead of raising (main thread only;
     elsewhere, where Python delivers no signals, the handle simply stays False). Nested blocks
     share the outermost handle. On leaving the block the previous handler is restored; a request
     that the block did not act upon is not lost: ``KeyboardInterrupt`` is raised on exit unless the
@@ -91,9 +116,16 @@ def deferred():
     if not in_main_thread():
         yield d
         return
+    previous = {}
     try:
-        previous = signal.signal(signal.SIGINT, d._handler)
+        for sig in SIGNALS:
+            # SIGTERM only where the command line took it (install); elsewhere its default
+            # action (the end of the process) is what a program using nld expects
+            if sig == signal.SIGINT or signal.getsignal(sig) is _cli_handler:
+                previous[sig] = signal.signal(sig, d._handler)
     except (ValueError, OSError):        # e.g. an embedded interpreter without signals
+        for sig, h in previous.items():
+            signal.signal(sig, h)
         yield d
         return
     d.active = True
@@ -106,8 +138,10 @@ def deferred():
         raise
     finally:
         _DEFERRAL_STACK.pop()
-        signal.signal(signal.SIGINT, previous)
-        if d.requested and not d.handled and not raised and previous not in (signal.SIG_IGN, None):
+        for sig, h in previous.items():
+            signal.signal(sig, h)
+        prev = previous.get(received(), previous[signal.SIGINT])
+        if d.requested and not d.handled and not raised and prev not in (signal.SIG_IGN, None):
             raise KeyboardInterrupt
 
 
@@ -134,6 +168,7 @@ def _arm_raise(frame) -> None:
 
 
 def _cli_handler(signum, frame):
+    _note(signum)
     if _in_numba(frame):
         # inside numba's boxing of a kernel's result: raising here crashes the process
         _arm_raise(frame)
@@ -142,28 +177,53 @@ def _cli_handler(signum, frame):
 
 
 def install() -> None:
-    """Process-wide SIGINT handler of the command line (see the module docstring); main thread
-    only, and only where SIGINT is not ignored (a background job of a non-interactive shell)."""
+    """Process-wide SIGINT and SIGTERM handler of the command line (see the module docstring); main
+    thread only, and only for a signal that is not ignored (SIGINT of a background job of a
+    non-interactive shell)."""
     if not in_main_thread():
         return
-    try:
-        if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-            return
-        signal.signal(signal.SIGINT, _cli_handler)
-    except (ValueError, OSError):
-        pass
+    for sig in SIGNALS:
+        try:
+            if signal.getsignal(sig) is signal.SIG_IGN:
+                continue
+            signal.signal(sig, _cli_handler)
+        except (ValueError, OSError):
+            pass
 
 
 def ignore_in_worker() -> None:
-    """A pool worker ignores SIGINT: the main process ends the pool (module docstring)."""
+    """A pool worker ignores SIGINT (the main process ends the pool, module docstring), keeps
+    SIGTERM's default action (end_pool sends it) and, on Linux, is killed when its parent dies."""
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if hasattr(signal, "SIGTERM"):
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
     except (ValueError, OSError):
+        pass
+    die_with_parent()
+
+
+def die_with_parent() -> None:
+    """Linux: ask the kernel to SIGKILL this process when its parent ends (``prctl
+    PR_SET_PDEATHSIG``); a parent already gone -> exit now. Elsewhere nothing."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        parent = os.getppid()
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        if parent == 1 or os.getppid() != parent:      # the parent died before the call
+            os._exit(1)
+    except Exception:             # noqa: BLE001 - no prctl: the parent's end_pool still works
         pass
 
 
-def end_pool(ex) -> None:
-    """Terminate the worker processes of a ProcessPoolExecutor and release it without waiting."""
+def end_pool(ex, grace: float = 2.0) -> None:
+    """End the worker processes of a ProcessPoolExecutor now and release it without waiting:
+    SIGTERM to every worker, SIGKILL to any still alive after ``grace`` seconds."""
+    import time
     procs = list((getattr(ex, "_processes", None) or {}).values())
     for p in procs:
         try:
@@ -174,8 +234,12 @@ def end_pool(ex) -> None:
         ex.shutdown(wait=False, cancel_futures=True)
     except Exception:             # noqa: BLE001
         pass
+    deadline = time.monotonic() + grace
     for p in procs:
         try:
-            p.join(timeout=2.0)
+            p.join(timeout=max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                p.kill()
+                p.join(timeout=1.0)
         except Exception:         # noqa: BLE001
             pass

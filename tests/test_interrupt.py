@@ -31,9 +31,9 @@ def _env(**extra):
     return env
 
 
-def interrupt_when(argv, ready, tmp_path, timeout=180.0):
-    """Run ``python -m nld argv``, send SIGINT once ``ready(stderr_text)`` is true, and return
-    (exit status, stdout, stderr, seconds from SIGINT to exit)."""
+def interrupt_when(argv, ready, tmp_path, timeout=180.0, sig=signal.SIGINT):
+    """Run ``python -m nld argv``, send ``sig`` (SIGINT) once ``ready(stderr_text)`` is true, and
+    return (exit status, stdout, stderr, seconds from the signal to exit)."""
     err_path, out_path = tmp_path / "stderr.txt", tmp_path / "stdout.txt"
     with open(err_path, "w") as ferr, open(out_path, "w") as fout:
         proc = subprocess.Popen([sys.executable, "-m", "nld", *argv], cwd=tmp_path, env=_env(),
@@ -45,7 +45,7 @@ def interrupt_when(argv, ready, tmp_path, timeout=180.0):
                 time.sleep(0.05)
             assert proc.poll() is None, f"the command ended before the interrupt: {err_path.read_text()}"
             t0 = time.monotonic()
-            proc.send_signal(signal.SIGINT)
+            proc.send_signal(sig)
             rc = proc.wait(timeout=60)
             dt = time.monotonic() - t0
         finally:
@@ -60,20 +60,28 @@ def _last_line(err: str) -> str:
     return lines[-1] if lines else ""
 
 
-def test_ctrl_c_during_simulate_exits_130_and_writes_the_partial_table(tmp_path):
-    """SIGINT while the integrator runs (the progress bar, forced on, appears after 2 s of
-    integration): exit 130 within seconds, no core dump, one line, the partial table kept."""
+@pytest.mark.parametrize("sig, status, head", [(signal.SIGINT, 130, "nld: interrupted: "),
+                                               (signal.SIGTERM, 143, "nld: terminated by SIGTERM: ")],
+                         ids=["SIGINT", "SIGTERM"])
+def test_signal_during_simulate_writes_the_partial_table_beside_the_target(tmp_path, sig, status, head):
+    """SIGINT (Ctrl-C) or SIGTERM (kill, a scheduler) while the integrator runs (the progress bar,
+    forced on, appears after 2 s of integration): exit 128 + signal within seconds, no core dump,
+    one line, the partial table kept beside --out (run.partial.parquet, marked partial) and the
+    file already at --out left alone (issue 27: SIGTERM used to end it silently, nothing kept)."""
     out = tmp_path / "run.parquet"
+    out.write_bytes(b"a good table of an earlier run")
     argv = ["simulate", "slider_crank", "--revs", "200000", "--samples-per-rev", "2", "--progress",
             "--out", str(out)]
-    rc, stdout, err, dt = interrupt_when(argv, lambda e: "rev [" in e or "rev/s" in e, tmp_path)
-    assert rc == 130, err
+    rc, stdout, err, dt = interrupt_when(argv, lambda e: "rev [" in e or "rev/s" in e, tmp_path, sig=sig)
+    assert rc == status, err
     assert dt < 10.0
     assert "Traceback" not in err and "Fatal Python error" not in err
     line = _last_line(err)
-    assert line.startswith("nld: interrupted: simulate stopped at t = ") and "partial" in line, err
-    assert str(out) in line
-    table, prov = load_table(out)
+    partial = tmp_path / "run.partial.parquet"
+    assert line.startswith(head + "simulate stopped at t = ") and "partial" in line, err
+    assert str(partial) in line and f"{out} not replaced" in line
+    assert out.read_bytes() == b"a good table of an earlier run"
+    table, prov = load_table(partial)
     n_total = 200000 * 2 + 1
     assert 2 < len(table) < n_total
     assert prov["partial"] is True and prov["status"] == -9 and "interrupted" in prov["message"]
@@ -261,3 +269,136 @@ def test_progress_enabled_rules(monkeypatch):
     with progress.progress_bar(3, unit="point", enabled=True) as outer:
         assert not isinstance(outer, progress.NullBar)
         assert isinstance(progress.progress_bar(5, enabled=None), progress.NullBar)
+
+
+# ------------------------------------------------- SIGTERM and the process pools (issue 27)
+
+needs_proc = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+
+
+def _pool_ended(kids, out=None):
+    """No worker is left alive, and (with ``out``) no point file appears after the exit."""
+    from interrupt import alive
+    n = len(list(out.glob("point-*.parquet"))) if out is not None else 0
+    deadline = time.monotonic() + 3.0
+    while any(alive(k) for k in kids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(alive(k) for k in kids), "worker processes left running"
+    if out is not None:
+        time.sleep(0.5)
+        assert len(list(out.glob("point-*.parquet"))) == n, "point files written after the exit"
+        assert not list(out.glob(".*.tmp")), "a temporary point file left behind"
+    return n
+
+
+@needs_proc
+@pytest.mark.parametrize("command", ["bifurcation", "chaos-map"])
+def test_sigterm_ends_the_pool_with_the_parent_and_keeps_the_finished_points(tmp_path, command):
+    """SIGTERM to `nld bifurcation/chaos-map --workers 2` after the first finished point: exit 143
+    within seconds, one line saying how many points were kept (the files on disk), no worker
+    process left and no point file written after the exit (before: the workers went on at full
+    CPU, writing point files, and the parent died silently)."""
+    from interrupt import signal_when
+    out = tmp_path / "out"
+    if command == "bifurcation":
+        argv = ["bifurcation", "slider_crank", "--param", "driver.speed", "--values", "200:600:40",
+                "--transient-revs", "0", "--revs", "40"]
+        total, what = 40, "points"
+    else:
+        argv = ["chaos-map", "slider_crank", "--x", "joints.B.clearance", "--x-values", "1e-4:5e-4:6",
+                "--y", "joints.B.friction.mu", "--y-values", "0:0.2:6", "--transient-revs", "0",
+                "--revs", "10"]
+        total, what = 36, "cells"
+    argv += ["--workers", "2", "--quiet", "--out", str(out)]
+    rc, _, err, dt, kids = signal_when(argv, lambda e: any(out.glob("point-*.parquet")), tmp_path,
+                                       signal.SIGTERM, workers=2)
+    assert rc == 143, err
+    assert dt < 10.0 and "Traceback" not in err
+    n = _pool_ended(kids, out)
+    assert 1 <= n < total
+    line = _last_line(err)
+    assert line.startswith("nld: terminated by SIGTERM: ")
+    assert f"{n} of {total} {what} finished and kept in {out}" in line and "--resume" in line
+
+
+STUDY = '''
+"""A study whose runs sleep on a pool of two processes (issue 27's signal tests)."""
+import os
+import time
+from pathlib import Path
+
+import pandas as pd
+
+STEM = "sleepy"
+TITLE = "sleepy"
+FULL = {"n": 4}
+QUICK = {"n": 4}
+
+
+def nap(i):
+    Path(f"nap-{os.getpid()}").touch()      # in the working directory: the worker is running
+    time.sleep(6.0)
+    return i
+
+
+def main(quick=False, out_dir=Path("reports")):
+    from nld.study import Study
+    study = Study(globals(), quick, out_dir)
+    study.provenance(scene="none")
+    study.save("_first.csv", pd.DataFrame({"x": [1.0, 2.0]}))
+    print("pool", flush=True)
+    study.map(nap, [(i,) for i in range(study.settings["n"])], 2)
+    return study.pdf
+'''
+
+
+@pytest.fixture
+def sleepy(tmp_path):
+    d = tmp_path / "studies"
+    d.mkdir()
+    (d / "sleepy.py").write_text(STUDY)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "sleepy_first.csv").write_text("x\n5.0\n")          # an earlier run's output
+    return dict(os.environ, NLD_STUDIES_DIR=str(d)), out
+
+
+def _napping(cwd):
+    """The pids of the study's workers that are running an item (their marker files)."""
+    return [int(p.name.split("-")[1]) for p in cwd.glob("nap-*")]
+
+
+@needs_proc
+def test_sigterm_ends_a_study_pool_and_keeps_its_outputs_beside(tmp_path, sleepy):
+    """SIGTERM to `nld study` while its pool runs: exit 143 within seconds, one line, the pool's
+    processes end with the parent (their items would run 6 s more); the output the study had
+    written is kept in out/sleepy.partial/ and the one of an earlier run in out/ is unchanged."""
+    from interrupt import signal_when
+    env, out = sleepy
+    rc, stdout, err, dt, _ = signal_when(["study", "sleepy", "--out", str(out), "--quiet"],
+                                         lambda e: len(_napping(tmp_path)) >= 2, tmp_path,
+                                         signal.SIGTERM, env=env)
+    assert rc == 143, err
+    assert dt < 5.0 and "Traceback" not in err
+    _pool_ended(_napping(tmp_path))
+    line = _last_line(err)
+    assert line.startswith("nld: terminated by SIGTERM: study sleepy stopped after ")
+    assert str(out / "sleepy.partial") in line and "unchanged" in line
+    assert (out / "sleepy_first.csv").read_text() == "x\n5.0\n"
+    kept = out / "sleepy.partial"
+    assert (kept / "sleepy_first.csv").read_text() == "x\n1.0\n2.0\n"
+    assert json.loads((kept / "partial.json").read_text())["partial"] is True
+    assert not list(out.glob(".staging-*"))
+
+
+@needs_proc
+def test_workers_die_with_a_killed_parent(tmp_path, sleepy):
+    """SIGKILL (nothing of the parent runs): the kernel ends the pool's workers with it
+    (PR_SET_PDEATHSIG, nld.interrupt.die_with_parent) instead of letting them finish their items."""
+    from interrupt import signal_when
+    env, out = sleepy
+    rc, _, err, _, _ = signal_when(["study", "sleepy", "--out", str(out), "--quiet"],
+                                   lambda e: len(_napping(tmp_path)) >= 2, tmp_path, signal.SIGKILL,
+                                   env=env)
+    assert rc == -signal.SIGKILL
+    _pool_ended(_napping(tmp_path))

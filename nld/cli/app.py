@@ -2,8 +2,10 @@
 :func:`main`: parse, run, and turn errors into exit statuses (see :mod:`nld.cli`)."""
 from __future__ import annotations
 
+import errno
 import os
 import shlex
+import signal
 import sys
 
 from nld.cli import bifurcation, chaos_map, hard_cases, lyapunov, poincare, scenes, simulate, \
@@ -25,7 +27,18 @@ def build_parser() -> Parser:
         command.add_parser(sub)
     for sp in sub.choices.values():
         progress_args(sp)
+    p.commands = sub.choices          # for the messages of unknown options (main)
     return p
+
+
+def parse(parser: Parser, argv: list[str]):
+    """``parser.parse_args(argv)``, except that an unknown option is reported by its command's
+    parser (the hint names ``nld COMMAND --help``, not ``nld --help``)."""
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        sp = getattr(parser, "commands", {}).get(getattr(args, "command", None), parser)
+        sp.error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
 
 
 def main(argv=None) -> int:
@@ -34,9 +47,10 @@ def main(argv=None) -> int:
     from nld import progress
     argv = list(sys.argv[1:] if argv is None else argv)
     interrupt.install()
+    interrupt._RECEIVED.clear()
     try:
         try:
-            args = build_parser().parse_args(values_with_minus(argv))
+            args = parse(build_parser(), values_with_minus(argv))
         except SystemExit as e:          # --help, --version
             return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
         args.command_line = shlex.join([PROG] + [str(a) for a in argv])
@@ -55,18 +69,35 @@ def main(argv=None) -> int:
     except SolveError as e:
         print_error(e)
         return 1
-    except Interrupted as e:
-        print_interrupted(e.kept or str(e) or "nothing kept")
-        return 130
-    except KeyboardInterrupt:
-        print_interrupted("nothing kept (the command had not finished a result yet)")
-        return 130
+    except KeyboardInterrupt as e:        # Ctrl-C or SIGTERM; Interrupted says what was kept
+        sig = interrupt.received() or signal.SIGINT
+        if isinstance(e, Interrupted):
+            kept = e.kept or str(e) or "nothing kept"
+        else:
+            kept = "nothing kept (the command had not finished a result yet)"
+        print_interrupted(kept, sig)
+        return 128 + int(sig)
     except BrokenPipeError:               # e.g. `nld scenes | head -1`
         quiet_stdout()
         return 141
     except MemoryError:
         print_error("out of memory: the run is too large for this machine (fewer revolutions or samples)")
         return 2
+    except OSError as e:
+        # standard output (or a file written without nld.output.io) on a full or failing disk
+        if e.errno not in FULL_DISK:
+            raise
+        where = "standard output" if e.filename is None else str(e.filename)
+        try:
+            print_error(f"cannot write to {where}: {e.strerror or e}")
+        except OSError:
+            pass
+        quiet_stdout()
+        return 1
+
+
+# the errors of a full or failing disk: one line, exit status 1, no traceback
+FULL_DISK = tuple(getattr(errno, n) for n in ("ENOSPC", "EDQUOT", "EFBIG", "EIO") if hasattr(errno, n))
 
 
 def quiet_stdout() -> None:

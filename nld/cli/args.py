@@ -37,9 +37,18 @@ def print_error(message) -> None:
     print(f"{PROG}: error: {one_line(message)}", file=sys.stderr)
 
 
-def print_interrupted(what: str) -> None:
-    """``nld: interrupted: <what was kept>`` on one line of stderr."""
-    print(f"{PROG}: interrupted: {one_line(what)}", file=sys.stderr, flush=True)
+def print_interrupted(what: str, signum: int | None = None) -> None:
+    """``nld: interrupted: <what was kept>`` (SIGINT, Ctrl-C) or ``nld: terminated by SIGTERM:
+    <what was kept>`` on one line of stderr."""
+    import signal
+    if signum is None or signum == signal.SIGINT:
+        head = "interrupted"
+    else:
+        try:
+            head = f"terminated by {signal.Signals(signum).name}"
+        except ValueError:
+            head = f"terminated by signal {signum}"
+    print(f"{PROG}: {head}: {one_line(what)}", file=sys.stderr, flush=True)
 
 
 # ---------------------------------------------------------------------------------------------------
