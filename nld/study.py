@@ -41,13 +41,19 @@ The numbers a study writes do not depend on the scaffold: it only names, places 
 """
 from __future__ import annotations
 
+import contextlib
+import json
+import os
+import re
+import shutil
 import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
 
 __all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run_table", "verdict",
-           "checked_verdict", "merge_checks", "NOT_SHOWN", "SHORT", "NOT_ESTABLISHED"]
+           "checked_verdict", "merge_checks", "NOT_SHOWN", "SHORT", "NOT_ESTABLISHED",
+           "staged_outputs", "full_mode_outputs"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
 SHORT = "λ1 > 0, short"
@@ -181,6 +187,111 @@ def pool_map(fn, items, workers: int) -> list:
     return res
 
 
+# ---------------------------------------------------------------------------------------------------
+# outputs replaced only by a whole study (nld study), and the full-mode outputs already there
+
+_STAGING: list = []       # [(out_dir resolved, staging dir)] while nld study runs a study
+
+
+def _staged(path: Path) -> Path:
+    """Where a study output for ``path`` is written now: in the staging directory while
+    :func:`staged_outputs` is active for its directory, else ``path`` itself."""
+    if _STAGING:
+        out, stage = _STAGING[-1]
+        try:
+            if Path(path).parent.resolve() == out:
+                stage.mkdir(parents=True, exist_ok=True)
+                return stage / Path(path).name
+        except OSError:
+            pass
+    return Path(path)
+
+
+@contextlib.contextmanager
+def staged_outputs(out_dir, stem: str, command: str | None = None):
+    """The outputs a study writes into ``out_dir`` (:meth:`Study.save`, :meth:`Study.report`)
+    go to a hidden staging directory while the block runs, and replace those in ``out_dir`` only
+    when the block ends normally: a study that fails or is interrupted leaves ``out_dir`` as it was
+    (a committed report is never half replaced). What it had written is moved to
+    ``out_dir/STEM.partial/`` (with ``partial.json`` saying so) instead; the handle's ``partial``
+    is that directory (None when nothing was written)."""
+    out = Path(out_dir).resolve()
+    stage = out / f".staging-{stem}-{os.getpid()}"
+    handle = SimpleNamespace(partial=None, stage=stage, files=[])
+    _STAGING.append((out, stage))
+    try:
+        yield handle
+    except BaseException as e:
+        _STAGING.pop()
+        handle.partial = _keep_partial(out, stage, stem, e, command)
+        raise
+    else:
+        _STAGING.pop()
+        files = sorted(stage.iterdir()) if stage.is_dir() else []
+        for f in files:
+            os.replace(f, out / f.name)
+        handle.files = [out / f.name for f in files]
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _keep_partial(out: Path, stage: Path, stem: str, exc: BaseException, command) -> Path | None:
+    files = sorted(stage.iterdir()) if stage.is_dir() else []
+    if not files:
+        return None
+    dest = out / f"{stem}.partial"
+    try:
+        if dest.exists():
+            shutil.rmtree(dest)
+        os.replace(stage, dest)
+        why = "interrupted" if isinstance(exc, KeyboardInterrupt) else \
+            f"failed: {type(exc).__name__}: {' '.join(str(exc).split())}"
+        (dest / "partial.json").write_text(json.dumps(
+            {"partial": True, "study": stem, "reason": why, "command": command,
+             "files": [f.name for f in files]}, indent=2) + "\n", encoding="utf-8")
+    except OSError:
+        return None
+    return dest
+
+
+_KEYWORDS = re.compile(rb"/Keywords\s*\((.*?)\)\s*/", re.S)
+
+
+def full_mode_outputs(out_dir, stem: str) -> list[Path]:
+    """The outputs of a full-mode run of study ``stem`` in ``out_dir``, recognised by their
+    provenance wherever the directory is: a sidecar ``STEM*.json`` whose provenance says
+    ``"study": STEM, "mode": "full"``, or a ``STEM.pdf`` whose keywords end with the mode "full"
+    (nld.output.report.Report.metadata)."""
+    d = Path(out_dir)
+    if not d.is_dir():
+        return []
+    found = []
+    for side in sorted(d.glob(f"{glob_escape(stem)}*.json")):
+        try:
+            prov = json.loads(side.read_text(encoding="utf-8"))
+        except (OSError, ValueError, UnicodeDecodeError):
+            continue
+        if isinstance(prov, dict) and prov.get("study") == stem and prov.get("mode") == "full":
+            found.append(side)
+    pdf = d / f"{stem}.pdf"
+    if pdf.is_file():
+        try:
+            with open(pdf, "rb") as f:
+                data = f.read()
+        except OSError:
+            data = b""
+        m = _KEYWORDS.search(data)
+        if m:
+            words = [w.strip() for w in m.group(1).split(b";")]
+            if words and words[0] == b"nld" and words[-1] == b"full":
+                found.append(pdf)
+    return found
+
+
+def glob_escape(text: str) -> str:
+    return re.sub(r"([*?\[])", r"[\1]", text)
+
+
 class Study:
     """One run of a study in one mode; see the module docstring.
 
@@ -270,7 +381,9 @@ class Study:
         stacked with a leading ``case`` column (nld.output.report.save_study_data), a DataFrame is
         written as it is (nld.output.io.save_table: .parquet or .csv, with a .json sidecar)."""
         from nld.output.report import save_study_data
-        return save_study_data(data, self.path(suffix), self.prov)
+        target = self.path(suffix)
+        written = save_study_data(data, _staged(target), self.prov)
+        return target.with_name(written.name)
 
     # ------------------------------------------------------------------ report
     def report(self, settings: dict, *, scene=None, subject: str | None = None, keywords=(),
@@ -282,7 +395,7 @@ class Study:
         earlier. ``kw``: more arguments of Report."""
         from nld.output.report import Report, study_start
         keywords = list(keywords) + ([] if self.mode in keywords else [self.mode])
-        return Report(self.pdf, self.title, scene=scene, provenance=self.prov, settings=settings,
+        return Report(_staged(self.pdf), self.title, scene=scene, provenance=self.prov, settings=settings,
                       subtitle=self.label if subtitle == "" else subtitle, highlight_subtitle=self.quick,
                       subject=subject, keywords=keywords,
                       started=min(self.start, study_start() or self.start), **kw)

@@ -129,22 +129,49 @@ def test_simulate_ideal_matches_closed_form(tmp_path, capsys):
     np.testing.assert_allclose(d_id["slider.x"].to_numpy(), x, rtol=0, atol=1e-12)
 
 
-def test_simulate_failed_integration_exits_1_and_writes(tmp_path, capsys, monkeypatch):
+def test_simulate_failed_integration_exits_1_and_keeps_the_good_file(tmp_path, capsys, monkeypatch):
+    """A failed run never replaces an existing table: its partial table goes beside the target
+    (f.partial.csv, marked partial) and the message says where (issue 27: the good run.csv of an
+    earlier run used to be overwritten by the failed run's rows)."""
     import importlib
     sim_mod = importlib.import_module("nld.run.simulate")   # the module (nld.simulate is the function)
     real = sim_mod.simulate
+    out = tmp_path / "f.csv"
+    rc, _, err = run(capsys, "simulate", "slider_crank", "--revs", "0.2", "--out", str(out))
+    assert rc == 0, err
+    good = out.read_bytes()
+    good_side = (tmp_path / "f.csv.json").read_bytes()
 
     def failing(*a, **k):
         res = real(*a, **k)
         return dataclasses.replace(res, status=-3, message="step size too small at t = 0.001 s",
                                    table=res.table.iloc[:10])
     monkeypatch.setattr(sim_mod, "simulate", failing)
-    out = tmp_path / "f.csv"
     rc, _, err = run(capsys, "simulate", "slider_crank", "--revs", "0.2", "--out", str(out))
     assert rc == 1
-    assert_one_line_error(err, "step size too small")
-    df, prov = load_table(out)
-    assert len(df) == 10 and prov["status"] == -3
+    partial = tmp_path / "f.partial.csv"
+    assert_one_line_error(err, "step size too small", str(partial), "partial")
+    assert out.read_bytes() == good and (tmp_path / "f.csv.json").read_bytes() == good_side
+    df, prov = load_table(partial)
+    assert len(df) == 10 and prov["status"] == -3 and prov["partial"] is True
+    assert load_table(out)[1].get("partial") is None
+
+
+def test_simulate_max_steps_failure_keeps_the_good_file(tmp_path, capsys, monkeypatch):
+    """The same with a real failed integration (max_steps exceeded, as a locking four-bar ends)."""
+    import importlib
+    sim_mod = importlib.import_module("nld.run.simulate")
+    real = sim_mod.simulate
+    out = tmp_path / "run.parquet"
+    assert run(capsys, "simulate", "slider_crank", "--revs", "0.1", "--out", str(out))[0] == 0
+    good = out.read_bytes()
+    monkeypatch.setattr(sim_mod, "simulate", lambda *a, **k: real(*a, **dict(k, max_steps=40)))
+    rc, _, err = run(capsys, "simulate", "slider_crank", "--revs", "0.1", "--out", str(out))
+    assert rc == 1
+    assert_one_line_error(err, "max_steps", "run.partial.parquet")
+    assert out.read_bytes() == good
+    df, prov = load_table(tmp_path / "run.partial.parquet")
+    assert prov["partial"] is True and prov["status"] < 0 and 0 < len(df) < 73
 
 
 def test_solve_error_exits_1(capsys, monkeypatch):
@@ -190,6 +217,44 @@ def test_malformed_toml_exits_2(tmp_path, capsys):
 
 
 # --------------------------------------------------------------------------- io
+
+
+def test_io_sidecar_failure_names_the_sidecar_and_replaces_nothing(tmp_path, monkeypatch):
+    """A disk where the table fits but its provenance sidecar does not: the error names the
+    sidecar (not the table), and neither file of an earlier save is replaced (issue 27: "cannot
+    write run.csv" although run.csv was whole, and a new table beside the old sidecar)."""
+    import errno
+
+    import nld.output.io as io
+    df = pd.DataFrame({"t": [0.0, 1.0]})
+    p = save_table(df, tmp_path / "run.csv", {"run": 1})
+    real = io._write_text
+
+    def full(path, text):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(io, "_write_text", full)
+    with pytest.raises(InputError) as ei:
+        save_table(pd.DataFrame({"t": [5.0]}), p, {"run": 2})
+    msg = str(ei.value)
+    assert msg.startswith(f"cannot write {p}.json: No space left on device")
+    assert "nothing replaced" in msg and "\n" not in msg
+    monkeypatch.setattr(io, "_write_text", real)
+    back, prov = load_table(p)
+    assert list(back["t"]) == [0.0, 1.0] and prov == {"run": 1}
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["run.csv", "run.csv.json"]   # no temp files
+
+
+def test_io_partial_goes_beside_the_target(tmp_path):
+    """save_table(partial=True): run.parquet -> run.partial.parquet, marked partial; the target is
+    not touched."""
+    from nld.output.io import partial_path
+    target = tmp_path / "run.parquet"
+    target.write_bytes(b"old")
+    p = save_table(pd.DataFrame({"t": [0.0]}), target, {"status": -1}, partial=True)
+    assert p == partial_path(target) == tmp_path / "run.partial.parquet"
+    assert target.read_bytes() == b"old"
+    assert load_table(p)[1] == {"status": -1, "partial": True}
+    assert partial_path("a/b.c.csv") == Path("a/b.c.partial.csv")
 
 
 def test_io_csv_round_trip_and_bad_suffix(tmp_path):
@@ -257,6 +322,52 @@ def test_study_writes_to_nld_out_by_default_and_quick_never_to_reports(studies, 
     assert sorted(p.name for p in reports.iterdir()) == ["zhang.pdf"]
     rc, out, err = run(capsys, "study", "zhang2013", "--out", str(reports))      # full mode: allowed
     assert rc == 0 and Path(out.strip()) == reports / "zhang.pdf"
+
+
+def test_quick_study_refused_where_full_mode_outputs_are_by_their_provenance(example_clone, capsys):
+    """A --quick run is refused in any directory holding full-mode outputs of the same study,
+    recognised by their provenance (a sidecar saying mode "full", or the PDF's keywords), not by
+    where nld is installed: another clone's reports/ (issue 27: only the reports/ of the
+    checkout nld ran from was protected). Other studies' full-mode files, and quick-mode ones,
+    do not stop it."""
+    studies, reports = example_clone
+    before = {p.name: p.read_bytes() for p in reports.iterdir()}
+    rc, _, err = run(capsys, "study", "zhang2013", "--quick", "--out", str(reports))
+    assert rc == 2
+    assert_one_line_error(err, "--quick", "zhang_full_summary.csv.json", "full mode")
+    assert {p.name: p.read_bytes() for p in reports.iterdir()} == before
+    (reports / "zhang_full_summary.csv.json").write_text('{"study": "zhang_full", "mode": "quick"}')
+    rc, _, err = run(capsys, "study", "zhang2013", "--quick", "--out", str(reports))
+    assert rc == 2
+    assert_one_line_error(err, "--quick", "zhang_full.pdf", "full mode")
+    (reports / "zhang_full.pdf").write_bytes(b"%PDF-1.4 /Keywords (nld; git 0; other; quick) /X")
+    rc, out, err = run(capsys, "study", "zhang2013", "--quick", "--out", str(reports))
+    assert rc == 0, err
+    assert Path(out.strip()) == reports / "zhang_quick.pdf"
+
+
+@pytest.fixture
+def example_clone(tmp_path, monkeypatch):
+    """A study (STEM zhang_full) in a studies/ directory of one checkout, and the reports/ of
+    another clone holding its full-mode outputs (a sidecar and a PDF with the mode in their
+    provenance), with nld installed from neither."""
+    d = tmp_path / "clone_a" / "studies"
+    d.mkdir(parents=True)
+    (d / "zhang2013_excavator.py").write_text(
+        "STEM = 'zhang_full'\n"
+        "def main(quick, out_dir):\n"
+        "    p = out_dir / ('zhang_quick.pdf' if quick else 'zhang_full.pdf')\n"
+        "    p.write_bytes(b'%PDF-1.4')\n"
+        "    return p\n")
+    monkeypatch.setenv("NLD_STUDIES_DIR", str(d))
+    reports = tmp_path / "clone_b" / "reports"
+    reports.mkdir(parents=True)
+    (reports / "zhang_full_summary.csv").write_text("a\n1\n")
+    (reports / "zhang_full_summary.csv.json").write_text(
+        '{"study": "zhang_full", "mode": "full", "nld_version": "0.1.0"}')
+    (reports / "zhang_full.pdf").write_bytes(
+        b"%PDF-1.4\n<< /Keywords (nld; git abc; nld 0.1.0; excavator; full) /Title (x) >>\n")
+    return d, reports
 
 
 def test_study_unknown_or_ambiguous_exits_2(studies, capsys):

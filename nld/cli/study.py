@@ -90,6 +90,9 @@ def committed_reports_dir(d: Path | None = None) -> Path:
 
 def cmd_study(args) -> int:
     from nld import progress
+    from nld.output.report import source_date_epoch
+    from nld.study import full_mode_outputs, staged_outputs
+    source_date_epoch()                       # a malformed SOURCE_DATE_EPOCH: refused before the run
     d = studies_dir()
     path = find_study(args.name, d)
     out_dir = Path(args.out_dir if args.out_dir is not None else DEFAULT_STUDY_OUT).expanduser()
@@ -101,6 +104,13 @@ def cmd_study(args) -> int:
     run = getattr(module, "main", None)
     if not callable(run):
         raise InputError(f"study {path} has no function main(quick: bool, out_dir: Path) -> Path")
+    stem = str(getattr(module, "STEM", path.stem))
+    if args.quick:
+        full = full_mode_outputs(out_dir, stem)
+        if full:
+            raise InputError(f"--out = {str(out_dir)!r}: holds the full-mode outputs of study {stem} "
+                             f"({full[0].name}: full mode in its provenance); a --quick run must not "
+                             f"overwrite them: use another directory (default ./{DEFAULT_STUDY_OUT}/)")
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -112,17 +122,27 @@ def cmd_study(args) -> int:
     if progress.progress_enabled():
         progress.write(f"study {path.stem}: {'quick' if args.quick else 'full'} mode, writing to "
                        f"{out_dir}", file=sys.stderr)
+    staged = None
     try:
-        pdf = run(quick=bool(args.quick), out_dir=out_dir)
-    except KeyboardInterrupt as e:
+        with staged_outputs(out_dir, stem, getattr(args, "command_line", None)) as staged:
+            pdf = run(quick=bool(args.quick), out_dir=out_dir)
+    except KeyboardInterrupt:
         stage = progress.last_stage()
         where = f" during '{stage}'" if stage else ""
         keeps = getattr(module, "INTERRUPT_KEEPS", None) or (
             "nothing kept: the report and its data are written only at the end (no partial PDF); "
             "run the study again")
+        if staged is not None and staged.partial is not None:
+            keeps += (f"; the outputs it had written are in {staged.partial} (partial), those in "
+                      f"{out_dir} are unchanged")
         raise Interrupted(f"study {path.stem} interrupted",
                           kept=f"study {path.stem} stopped after {time.perf_counter() - start:.3g} s"
                                f"{where}: {keeps}") from None
+    except Exception:
+        if staged is not None and staged.partial is not None:
+            print(f"nld: study {path.stem} did not finish: the outputs it had written are in "
+                  f"{staged.partial} (partial); those in {out_dir} are unchanged", file=sys.stderr)
+        raise
     finally:
         study_started(None)
     wall = time.perf_counter() - start
