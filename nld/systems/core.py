@@ -248,6 +248,11 @@ class DiscreteMap:
     jacobian: optional numba ``jac(x, p, J)`` writing the n x n Jacobian into J (default: central
          finite differences with steps 1e-6 * scales).
     scales: per-state scales of the separation norm (default 1).
+
+    Both functions must be numba-compiled (``@njit``): the analyses call them from compiled code.
+    Each is called once here, on x0, with guard memory around its output: a function that writes
+    outside ``out`` (n values) or ``J`` (n x n) -- memory corruption in compiled code, where no
+    index is checked -- or leaves part of it unwritten is refused (InputError), before any run.
     """
 
     is_map = True
@@ -263,6 +268,10 @@ class DiscreteMap:
         self.p = np.ascontiguousarray(np.array(p, dtype=float).ravel())
         self.name = str(name)
         self.jacobian = jacobian
+        _probe_map_function(f, "f", "f(x, p, out)", self.y0, self.p, (self.n,))
+        if jacobian is not None:
+            _probe_map_function(jacobian, "jacobian", "jac(x, p, J)", self.y0, self.p,
+                                (self.n, self.n))
         self.state_names = ([f"x{i}" for i in range(self.n)] if state_names is None
                             else [str(s) for s in state_names])
         self.scales = _scales(scales, self.n)
@@ -275,6 +284,36 @@ class DiscreteMap:
 
     def __repr__(self):
         return f"DiscreteMap({self.name!r}, n={self.n})"
+
+
+_GUARD = -1.2345678901234567e300       # a value no map writes by chance
+
+
+def _probe_map_function(fn, name: str, signature: str, x0, p, shape) -> None:
+    """Check a map's function once on x0: numba-compiled, and writing all of its output array of
+    ``shape`` and nothing outside it (guard memory on both sides); else InputError."""
+    from numba.core.dispatcher import Dispatcher
+    what = "map" if name == "f" else "Jacobian"
+    if not isinstance(fn, Dispatcher):
+        raise InputError(f"{name} = {fn!r}: the {what} must be a numba-compiled function "
+                         f"{signature} (decorate it with @numba.njit)")
+    size = int(np.prod(shape))
+    pad = max(64, 4 * size)
+    buf = np.full(pad + size + pad, _GUARD)
+    out = buf[pad:pad + size].reshape(shape)
+    try:
+        fn(x0.copy(), p, out)
+    except Exception as e:        # noqa: BLE001 - numba typing errors, errors of the function
+        first = " ".join(str(e).split())[:200]
+        raise InputError(f"{name}: calling {signature} on x0 failed ({type(e).__name__}: {first}); "
+                         f"it must be a numba function {signature} writing {' x '.join(map(str, shape))} "
+                         "values") from None
+    if np.any(buf[:pad] != _GUARD) or np.any(buf[pad + size:] != _GUARD):
+        raise InputError(f"{name}: {signature} writes outside its output array of shape {shape} "
+                         f"(called on x0 = {x0.tolist()}): index it within {' x '.join(map(str, shape))}")
+    if np.any(out == _GUARD):
+        raise InputError(f"{name}: {signature} leaves part of its output array of shape {shape} "
+                         f"unwritten (called on x0 = {x0.tolist()}): write every entry")
 
 
 # ---------------------------------------------------------------- integration of one interval
@@ -414,6 +453,7 @@ def lorenz(sigma: float = 10.0, rho: float = 28.0, beta: float = 8.0 / 3.0,
     s = ContinuousSystem(lorenz_rhs, y0, [sigma, rho, beta], name, ["x", "y", "z"],
                          solve=_BuiltinSolve(_LORENZ))
     s.builtin_code = _LORENZ
+    s.param_names = ["sigma", "rho", "beta"]
     return s
 
 
@@ -430,6 +470,8 @@ def duffing(delta: float = 0.3, alpha: float = -1.0, beta: float = 1.0, gamma: f
                          f"gamma={gamma:g}, omega={omega:g})",
                          ["x", "x_dot"], period=2.0 * math.pi / omega, solve=_BuiltinSolve(_DUFFING))
     s.builtin_code = _DUFFING
+    s.param_names = ["delta", "alpha", "beta", "gamma", "omega"]
+    s.period_index = 4          # the forcing frequency: the period follows it
     return s
 
 

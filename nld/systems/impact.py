@@ -76,4 +76,5 @@ def impact_oscillator(zeta: float = 0.05, omega: float = 0.8, F: float = 1.0, d:
                          init_modes=impact_init_modes)
     s.contact_events = [0]
     s.param_names = ["zeta", "omega", "F", "d", "k", "c"]
+    s.period_index = 1
     return s

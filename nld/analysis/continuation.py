@@ -1,0 +1,626 @@
+"""Continuation of periodic orbits in one parameter, with the bifurcations located and named.
+
+:func:`continue_orbit` follows a periodic orbit (``nld.analysis.orbits``) of a scene, a forced
+flow or a map as one parameter changes, with a predictor-corrector scheme (Allgower & Georg 1990;
+Kuznetsov 2004, ch. 10; Seydel 2010, ch. 4):
+
+* natural-parameter continuation over given values (the previous orbit, extrapolated along the
+  secant, as the guess; it cannot pass a fold and says so);
+* pseudo-arclength continuation over a range (Keller 1977): the unknowns are the shooting points
+  and the parameter, the extra equation t . (V - V_pred) = 0 with t the branch's unit tangent (the
+  null vector of [G_x, G_lambda], G_lambda by a forward difference), adaptive step (x1.5 after a
+  corrector of <= 3 Newton steps, /2 after a failure).
+
+Along the branch the Floquet multipliers (neutral memory multipliers of a permanent-contact orbit
+left out) are watched for the codimension-one bifurcations of a map (Kuznetsov 2004, ch. 4):
+**period doubling** (a real multiplier through -1: the test function prod(mu + 1) changes sign),
+**fold** (through +1: prod(mu - 1), and the parameter turns back), **Neimark-Sacker** (a complex
+pair through |mu| = 1), and the discontinuity-induced bifurcations of impacting systems
+(di Bernardo et al. 2008, ch. 8; Nordmark 1991): **grazing** (a contact's normal approach speed
+on the orbit goes to 0 and the number of contacts per period changes) and, generally, the
+**appearance or loss of a contact** per period. Period doubling, Neimark-Sacker and grazing are
+located by bisection in the parameter (a corrector solve per step) to ``locate_tol``; a fold by
+its bracketing branch points. :func:`period_doubled_orbit` starts the doubled branch at a located
+period doubling.
+
+Parameters: for a scene a scene key as ``nld --set`` takes it (``joints.B.clearance``,
+``driver.speed``); the kernel is the same at every value (parameters are kernel arguments; a
+value that changes the scene's structure is refused). For another system the index of p or a
+name of ``system.param_names``. Units: the parameter's SI unit.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from nld.errors import InputError, SolveError
+from nld.analysis.orbits import PeriodicOrbit, _Shooting, _finite, check_period, periodic_orbit
+from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
+
+__all__ = ["Family", "Bifurcation", "Branch", "continue_orbit", "period_doubled_orbit",
+           "KINDS"]
+
+KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing")
+
+
+# ---------------------------------------------------------------------------------------------------
+# a system as a function of one parameter
+
+
+class Family:
+    """``system`` with one parameter varied: ``at(value)`` is the system at that value (cached)."""
+
+    def __init__(self, system, param):
+        self.base = system
+        self.param = param
+        self._cache: dict = {}
+        if getattr(system, "kernel", None) is not None:
+            from nld.model.scene import resolve_scene
+            if not isinstance(param, str):
+                raise InputError(f"param = {param!r}: for a scene give a scene key, e.g. "
+                                 f"joints.B.clearance or driver.speed")
+            self.kind = "scene"
+            self.value0 = self._scene_value(system.scene, param)
+            resolve_scene(system.scene, [f"{param}={self.value0!r}"])   # checks the key
+        else:
+            self.kind = "p"
+            names = list(getattr(system, "param_names", []) or [])
+            if isinstance(param, str):
+                if param not in names:
+                    raise InputError(f"param = {param!r}: {system.name} has parameters "
+                                     f"{', '.join(names) if names else '(unnamed: give an index of p)'}")
+                self.index = names.index(param)
+            elif isinstance(param, (int, np.integer)) and not isinstance(param, bool) \
+                    and 0 <= param < system.p.size:
+                self.index = int(param)
+            else:
+                raise InputError(f"param = {param!r}: must be a name in {names} or an index of p "
+                                 f"(0..{system.p.size - 1})")
+            self.value0 = float(system.p[self.index])
+
+    @staticmethod
+    def _scene_value(scene, key: str) -> float:
+        from nld.model.scene import scene_to_dict
+        node = scene_to_dict(scene)
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                raise InputError(f"param = {key!r}: no such scene key")
+            node = node[part]
+        try:
+            return float(node)
+        except (TypeError, ValueError):
+            raise InputError(f"param = {key!r}: is {node!r}, not a number") from None
+
+    def at(self, value: float):
+        value = float(value)
+        if value in self._cache:
+            return self._cache[value]
+        b = self.base
+        if self.kind == "scene":
+            from nld.kernel.compile import compile_scene
+            from nld.model.scene import resolve_scene
+            from nld.systems.core import SceneSystem
+            sc = resolve_scene(b.scene, [f"{self.param}={value!r}"])
+            kern = compile_scene(sc)
+            if kern.key != b.kernel.key:
+                raise InputError(f"{self.param} = {value:g} changes the scene's structure (e.g. a "
+                                 f"clearance of 0 is an ideal joint): continue within one structure")
+            s = SceneSystem(sc, kernel=kern, method=b.method)
+        else:
+            s = copy.copy(b)
+            s.p = b.p.copy()
+            s.p[self.index] = value
+            pi = getattr(b, "period_index", None)
+            if pi is not None and pi == self.index and b.period is not None:
+                if not value > 0:
+                    raise InputError(f"{self.param} = {value!r}: the forcing frequency must be > 0")
+                s.period = 2.0 * math.pi / value
+                s.hmax = s.period / 20.0
+            for attr in ("_tangent_solver",):
+                if hasattr(b, attr):
+                    setattr(s, attr, getattr(b, attr))
+        if len(self._cache) > 64:
+            self._cache.clear()
+        self._cache[value] = s
+        return s
+
+    def map_at(self, value, like):
+        """The derived map of ``like``'s kind at value (a Poincaré map keeps its section)."""
+        s = self.at(value)
+        if isinstance(like, NumbaMap):
+            return NumbaMap(s)
+        if isinstance(like, PoincareMap):
+            return PoincareMap(s, like.normal, like.offset, like.direction, dt=like.dt,
+                               t_min=like.t_min, t_max=like.t_max, rtol=like.rtol)
+        return StroboscopicMap(s, like.periods, like.rtol)
+
+
+# ---------------------------------------------------------------------------------------------------
+# results
+
+
+@dataclass
+class Bifurcation:
+    """A bifurcation found between two branch points.
+
+    kind: one of KINDS; value: the located parameter value (SI unit of the parameter), within
+    ``tolerance``; multiplier: the critical multiplier (complex) or None (grazing); orbit: the
+    orbit at the located value (the branch's side before it); detail: one line for humans."""
+    kind: str
+    value: float
+    tolerance: float
+    multiplier: complex | None
+    orbit: PeriodicOrbit | None
+    detail: str
+    between: tuple = ()
+
+    def to_dict(self) -> dict:
+        m = self.multiplier
+        return {"kind": self.kind, "value": self.value, "tolerance": self.tolerance,
+                "multiplier_re": None if m is None else float(np.real(m)),
+                "multiplier_im": None if m is None else float(np.imag(m)),
+                "detail": self.detail}
+
+
+@dataclass
+class Branch:
+    """A continued branch: ``values`` and ``orbits`` in branch order (failed points are not
+    included; ``message`` says why the branch ended), the located ``bifurcations``."""
+    param: object
+    period: int
+    values: list
+    orbits: list
+    bifurcations: list
+    message: str
+    settings: dict = field(default_factory=dict)
+
+    def table(self) -> pd.DataFrame:
+        """One row per branch point: value, converged, residual, stable, max |mu|, the
+        multipliers (re, im columns by decreasing modulus), onsets per period, smallest approach
+        speed, continuum, and the orbit's first section point (one column per state)."""
+        rows = []
+        for v, o in zip(self.values, self.orbits):
+            r = {"value": v, "period": o.period, "converged": o.converged, "residual": o.residual,
+                 "stable": ("" if o.stable is None else ("stable" if o.stable else "unstable")),
+                 "max_abs_multiplier": o.max_abs_multiplier,
+                 "onsets_per_period": o.onsets_per_period,
+                 "min_approach_speed": o.min_approach_speed, "continuum": o.continuum}
+            for i, m in enumerate(o.multipliers):
+                r[f"mu{i}_re"] = float(m.real)
+                r[f"mu{i}_im"] = float(m.imag)
+            for k in range(o.period):
+                for name, x in zip(o.state_names, o.points[k]):
+                    r[f"{name}[{k}]" if o.period > 1 else name] = float(x)
+            rows.append(r)
+        return pd.DataFrame(rows)
+
+    def bifurcation_table(self) -> pd.DataFrame:
+        return pd.DataFrame([b.to_dict() for b in self.bifurcations],
+                            columns=["kind", "value", "tolerance", "multiplier_re",
+                                     "multiplier_im", "detail"])
+
+
+# ---------------------------------------------------------------------------------------------------
+# test functions
+
+
+def _critical(o: PeriodicOrbit) -> np.ndarray:
+    """The multipliers that decide stability: a continuum's neutral memory multiplier dropped."""
+    mu = o.multipliers
+    if o.continuum and mu.size:
+        mu = np.delete(mu, int(np.argmin(np.abs(mu - 1.0))))
+    return mu
+
+
+def _tests(o: PeriodicOrbit) -> dict:
+    mu = _critical(o)
+    cplx = mu[np.abs(mu.imag) > 1e-9 * np.maximum(1.0, np.abs(mu))]
+    return {"pd": float(np.real(np.prod(mu + 1.0))) if mu.size else 1.0,
+            "fold": float(np.real(np.prod(mu - 1.0))) if mu.size else 1.0,
+            "ns": float(np.real(np.prod(np.abs(cplx[cplx.imag > 0]) ** 2 - 1.0)))
+            if cplx.size else None,
+            "contacts": int(o.onsets_per_period)}
+
+
+# ---------------------------------------------------------------------------------------------------
+# correctors
+
+
+def _orbit_at(fam, value, like_map, orbit_guess: PeriodicOrbit, X=None, rtol=None, tol=None,
+              max_iter=12):
+    """The period-p orbit at ``value`` from a guess (the orbit's points, or X)."""
+    m = fam.map_at(value, like_map)
+    pts = orbit_guess.points if X is None else X
+    return periodic_orbit(m, orbit_guess.period, np.array(pts), z=orbit_guess.z[0], tol=tol,
+                          check=True, max_iter=max_iter,
+                          shooting=orbit_guess.settings.get("shooting", "auto"))
+
+
+def _arclength_corrector(fam, like_map, o_prev: PeriodicOrbit, V_pred, t_vec, lam_scale, frozen,
+                         tol, max_iter=8):
+    """Newton on [G(U, lam); t . (V - V_pred)] = 0 (V = (U, lam / lam_scale), U the scaled
+    shooting points). Returns (orbit, value, iterations) or None."""
+    p = o_prev.period
+    multiple = o_prev.settings.get("shooting") == "multiple"
+    V = V_pred.copy()
+    Z = [np.array(z) for z in (o_prev.z if multiple else o_prev.z[:1])]
+    for it in range(1, max_iter + 1):
+        lam = V[-1] * lam_scale
+        try:
+            m = fam.map_at(lam, like_map)
+        except InputError:
+            return None
+        sh = _Shooting(m, p, multiple)
+        npts = p if multiple else 1
+        X = V[:-1].reshape(npts, m.n) * sh.s
+        try:
+            r, J, steps = sh.evaluate(X, Z, True)
+            dl = 1e-6 * max(abs(lam), lam_scale * 1e-3)
+            m2 = fam.map_at(lam + dl, like_map)
+            r2, _, _ = _Shooting(m2, p, multiple).evaluate(X, Z, False)
+        except SolveError:
+            return None
+        if not (_finite(r) and _finite(J) and _finite(r2)):
+            return None
+        Gl = (r2 - r) / dl * lam_scale
+        J = J.copy()
+        if frozen.size:
+            J[:, frozen] = 0.0
+        res = float(np.max(np.abs(r)))
+        A = np.vstack([np.column_stack([J, Gl]), t_vec[None, :]])
+        F = np.concatenate([r, [float(t_vec @ (V - V_pred))]])
+        if res <= tol and abs(F[-1]) <= 1e-8:
+            o = periodic_orbit(m, p, X, z=Z[0], tol=tol, check=True, max_iter=3,
+                               shooting="multiple" if multiple else "single")
+            return (o, lam, it) if o.converged else None
+        try:
+            dV = np.linalg.lstsq(A, -F, rcond=1e-12)[0]
+        except np.linalg.LinAlgError:
+            return None
+        if frozen.size:
+            dV[frozen] = 0.0
+        V = V + dV
+        if multiple:
+            Z = [steps[(i - 1) % p].z for i in range(p)]
+    return None
+
+
+def _unknowns(o: PeriodicOrbit, m):
+    """The scaled shooting unknowns of an orbit (all p points for multiple shooting)."""
+    s = np.asarray(m.scales, dtype=float)
+    pts = o.points if o.settings.get("shooting") == "multiple" else o.points[:1]
+    return (np.asarray(pts) / s).ravel()
+
+
+def _frozen(o: PeriodicOrbit, m) -> np.ndarray:
+    """Unknowns held fixed: the memory entries of a continuum orbit (a history, not a state the
+    branch can move)."""
+    if not o.continuum or m.memory.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    npts = o.period if o.settings.get("shooting") == "multiple" else 1
+    return np.array([k * m.n + m.n_y + j for k in range(npts) for j in range(m.memory.size)],
+                    dtype=np.int64)
+
+
+def _tangent(fam, like_map, o: PeriodicOrbit, value, lam_scale, prev_t=None):
+    """The unit tangent of the branch at (o, value): null vector of [G_U, G_lam]."""
+    m = fam.map_at(value, like_map)
+    p = o.period
+    multiple = o.settings.get("shooting") == "multiple"
+    sh = _Shooting(m, p, multiple)
+    npts = p if multiple else 1
+    X = o.points[:npts]
+    Z = [np.array(z) for z in o.z[:npts]]
+    r, J, _ = sh.evaluate(X, Z, True)
+    dl = 1e-6 * max(abs(value), lam_scale * 1e-3)
+    r2, _, _ = _Shooting(fam.map_at(value + dl, like_map), p, multiple).evaluate(X, Z, False)
+    Gl = (r2 - r) / dl * lam_scale
+    fz = _frozen(o, m)
+    J = J.copy()
+    if fz.size:
+        J[:, fz] = 0.0
+    A = np.column_stack([J, Gl])
+    if fz.size:
+        keep = np.setdiff1d(np.arange(A.shape[1]), fz)
+        _, _, vt = np.linalg.svd(A[:, keep])
+        t = np.zeros(A.shape[1])
+        t[keep] = vt[-1]
+    else:
+        _, _, vt = np.linalg.svd(A)
+        t = vt[-1]
+    t /= np.linalg.norm(t)
+    if prev_t is not None and float(t @ prev_t) < 0:
+        t = -t
+    return t
+
+
+# ---------------------------------------------------------------------------------------------------
+# the continuation
+
+
+def _check_values(values, value0, param):
+    v = np.array(values, dtype=float).ravel()
+    if v.size < 2 or not np.all(np.isfinite(v)):
+        raise InputError(f"values = {values!r}: give at least two finite values of {param}")
+    if np.any(np.diff(v) == 0):
+        raise InputError(f"values: {param} repeats a value; give distinct values")
+    lo, hi = min(v[0], v[-1]), max(v[0], v[-1])
+    span = max(hi - lo, abs(value0) * 1e-12)
+    if not (lo - 1e-9 * span <= value0 <= hi + 1e-9 * span):
+        raise InputError(f"values {v[0]:g} ... {v[-1]:g} of {param} do not contain the start "
+                         f"orbit's value {value0:g}")
+    return v
+
+
+def continue_orbit(system, orbit: PeriodicOrbit, param, values=None, *, range=None,
+                   method: str | None = None, step: float | None = None, max_points: int = 200,
+                   tol: float | None = None, locate: bool = True, locate_tol: float | None = None,
+                   progress=None, on_point=None) -> Branch:
+    """Follow ``orbit`` of ``system`` (the system at the orbit's parameter value) in ``param``.
+
+    values: parameter values for natural continuation (must contain the start value; the
+            branch is followed from the start outwards to both ends given), or
+    range:  (a, b) for pseudo-arclength continuation from the start value towards b (then back
+            towards a if a is on the other side), first step ``step`` (default |b - a| / 50),
+            at most ``max_points`` points.
+    method: "natural" or "arclength" (default: natural with values, arclength with range).
+    locate: locate the bifurcations (module docstring) to ``locate_tol`` (default 1e-4 of the
+            parameter's step).
+    on_point: optional callable (value, orbit) after each branch point (a CLI writes it).
+    Returns a :class:`Branch`; the orbits carry their multipliers and contact statistics.
+    """
+    if not isinstance(orbit, PeriodicOrbit):
+        raise InputError("orbit: give a PeriodicOrbit (from nld.analysis.orbits.periodic_orbit)")
+    if not orbit.converged:
+        raise InputError(f"orbit: the start orbit did not converge ({orbit.message})")
+    fam = Family(system, param)
+    like = orbit.map
+    v0 = fam.value0
+    if values is None and range is None:
+        raise InputError("give values (natural continuation) or range=(a, b) (pseudo-arclength)")
+    method = method or ("natural" if values is not None else "arclength")
+    if method not in ("natural", "arclength"):
+        raise InputError(f"method = {method!r}: must be 'natural' or 'arclength'")
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 2:
+        raise InputError(f"max_points = {max_points!r}: must be an integer >= 2")
+    tol = orbit.tolerance if tol is None else float(tol)
+    t_start = time.perf_counter()
+    settings = {"param": param, "method": method, "period": orbit.period, "tol": tol,
+                "rtol": orbit.settings.get("rtol"), "map": orbit.settings.get("map")}
+    if method == "natural":
+        if values is None:
+            raise InputError("method 'natural' needs values")
+        v = _check_values(values, v0, param)
+        settings["values"] = v.tolist()
+        vals, orbs, msg = _natural(fam, like, orbit, v0, v, tol, progress, on_point)
+        dstep = float(np.min(np.abs(np.diff(v))))
+    else:
+        if range is None:
+            rng = _check_values(values, v0, param)
+            a, b = float(rng[0]), float(rng[-1])
+        else:
+            try:
+                a, b = (float(x) for x in range)
+            except (TypeError, ValueError):
+                raise InputError(f"range = {range!r}: give (a, b)") from None
+            _check_values([a, b], v0, param)
+        settings["range"] = [a, b]
+        dstep = float(step) if step is not None else abs(b - a) / 50.0
+        if not (dstep > 0 and math.isfinite(dstep)):
+            raise InputError(f"step = {step!r}: must be a positive parameter step")
+        settings["step"] = dstep
+        vals, orbs, msg = _arclength(fam, like, orbit, v0, a, b, dstep, int(max_points), tol,
+                                     progress, on_point)
+    bifs = []
+    for i in np.arange(len(orbs) - 1):
+        bifs += _detect(fam, like, vals[i], orbs[i], vals[i + 1], orbs[i + 1], tol, locate,
+                        locate_tol if locate_tol is not None else 1e-4 * dstep)
+    settings["wall_s"] = time.perf_counter() - t_start
+    return Branch(param, orbit.period, vals, orbs, bifs, msg, settings)
+
+
+def _natural(fam, like, orbit, v0, v, tol, progress, on_point):
+    """Natural continuation outwards from v0 over the values (both directions)."""
+    up = [x for x in v if x > v0 + 1e-12 * max(1.0, abs(v0))]
+    down = [x for x in v[::-1] if x < v0 - 1e-12 * max(1.0, abs(v0))]
+    if v[0] > v[-1]:
+        up, down = sorted(up), sorted(down, reverse=True)
+    else:
+        up, down = sorted(up), sorted(down, reverse=True)
+    res = {v0: orbit}
+    msgs = []
+    done = 0
+    for seq in (up, down):
+        prev = [(v0, orbit)]
+        for x in seq:
+            o_last = prev[-1][1]
+            X = None
+            if len(prev) >= 2:          # secant predictor of the shooting points
+                (va, oa), (vb, ob) = prev[-2], prev[-1]
+                if oa.points.shape == ob.points.shape:
+                    X = ob.points + (ob.points - oa.points) * (x - vb) / (vb - va)
+            try:
+                o = _orbit_at(fam, x, like, o_last, X, tol=tol)
+                if not o.converged and X is not None:
+                    o = _orbit_at(fam, x, like, o_last, None, tol=tol)
+            except SolveError as e:
+                msgs.append(f"stopped at {x:g}: {e}")
+                break
+            done += 1
+            if progress is not None:
+                progress(done, len(up) + len(down), x)
+            if not o.converged:
+                msgs.append(f"stopped at {fam.param} = {x:g}: no orbit there ({o.message}); a fold "
+                            f"or the end of the branch (pseudo-arclength continuation passes "
+                            f"folds)")
+                break
+            res[x] = o
+            prev.append((x, o))
+            if on_point is not None:
+                on_point(x, o)
+    keys = sorted(res) if v[0] <= v[-1] else sorted(res, reverse=True)
+    return keys, [res[k] for k in keys], "; ".join(msgs) or "completed"
+
+
+def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_point):
+    """Pseudo-arclength continuation from v0 towards b, then from v0 towards a."""
+    lam_scale = max(abs(b - a), 1e-300)
+    segments = []
+    msgs = []
+    for target in ([b, a] if a != v0 else [b]):
+        if abs(target - v0) <= 1e-12 * lam_scale:
+            continue
+        direction = 1.0 if target > v0 else -1.0
+        m0 = fam.map_at(v0, like)
+        t = _tangent(fam, like, orbit, v0, lam_scale)
+        if t[-1] * direction < 0:
+            t = -t
+        o, lam = orbit, v0
+        h = ds / lam_scale
+        pts = []
+        while len(pts) + 1 < max_points:
+            U = _unknowns(o, fam.map_at(lam, like))
+            V = np.concatenate([U, [lam / lam_scale]])
+            ok = None
+            while h >= 1e-6 * ds / lam_scale:
+                V_pred = V + h * t
+                ok = _arclength_corrector(fam, like, o, V_pred, t, lam_scale,
+                                          _frozen(o, m0), tol)
+                if ok is not None:
+                    break
+                h *= 0.5
+            if ok is None:
+                msgs.append(f"towards {target:g}: the corrector failed at {fam.param} = {lam:g} "
+                            f"even with a step of {h * lam_scale:.3g}")
+                break
+            o_new, lam_new, its = ok
+            pts.append((lam_new, o_new))
+            if on_point is not None:
+                on_point(lam_new, o_new)
+            if progress is not None:
+                progress(len(pts), max_points, lam_new)
+            t = _tangent(fam, like, o_new, lam_new, lam_scale, t)
+            o, lam = o_new, lam_new
+            if its <= 3:
+                h = min(1.5 * h, 4 * ds / lam_scale)
+            if (lam - target) * direction >= 0:
+                break
+            if not (min(a, b) - 0.5 * abs(b - a) <= lam <= max(a, b) + 0.5 * abs(b - a)):
+                break
+        segments.append(pts)
+    # branch order: from the a side through v0 to the b side
+    seg_b = segments[0] if segments else []
+    seg_a = segments[1] if len(segments) > 1 else []
+    ordered = list(reversed(seg_a)) + [(v0, orbit)] + seg_b
+    return [x for x, _ in ordered], [o for _, o in ordered], "; ".join(msgs) or "completed"
+
+
+# ---------------------------------------------------------------------------------------------------
+# detection and location
+
+
+def _bisect(fam, like, va, oa, vb, ob, same_side, tol_v, tol, max_iter=40):
+    """Bisection in the parameter between branch points a and b: same_side(orbit) True on a's
+    side. Returns (value, orbit_a_side, orbit_b_side, width)."""
+    for _ in range(max_iter):
+        if abs(vb - va) <= tol_v:
+            break
+        vm = 0.5 * (va + vb)
+        Xg = 0.5 * (oa.points + ob.points) if oa.points.shape == ob.points.shape else None
+        try:
+            om = _orbit_at(fam, vm, like, oa, Xg, tol=tol)
+        except SolveError:
+            break
+        if not om.converged:
+            break
+        if same_side(om):
+            va, oa = vm, om
+        else:
+            vb, ob = vm, om
+    return 0.5 * (va + vb), oa, ob, abs(vb - va)
+
+
+def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
+    out = []
+    ta, tb = _tests(oa), _tests(ob)
+    checks = []
+    if ta["pd"] * tb["pd"] < 0:
+        checks.append(("period_doubling", "pd"))
+    if ta["fold"] * tb["fold"] < 0:
+        checks.append(("fold", "fold"))
+    if ta["ns"] is not None and tb["ns"] is not None and ta["ns"] * tb["ns"] < 0:
+        checks.append(("neimark_sacker", "ns"))
+    for kind, key in checks:
+        sign_a = math.copysign(1.0, ta[key])
+        if locate and kind != "fold":
+            def same(o, key=key, sign_a=sign_a):
+                tv = _tests(o)[key]
+                return tv is not None and math.copysign(1.0, tv) == sign_a
+            v, o1, o2, w = _bisect(fam, like, va, oa, vb, ob, same, locate_tol, tol)
+        else:
+            v, o1, w = 0.5 * (va + vb), oa, abs(vb - va)
+        mu = _critical(o1)
+        target = {"period_doubling": -1.0, "fold": 1.0}.get(kind)
+        if target is not None:
+            crit = mu[int(np.argmin(np.abs(mu - target)))] if mu.size else None
+        else:
+            cpl = mu[np.abs(mu.imag) > 0]
+            crit = cpl[int(np.argmin(np.abs(np.abs(cpl) - 1.0)))] if cpl.size else None
+        name = {"period_doubling": "period doubling (a multiplier through -1)",
+                "fold": "fold (a multiplier through +1)",
+                "neimark_sacker": "Neimark-Sacker (a complex pair through |mu| = 1)"}[kind]
+        out.append(Bifurcation(kind, float(v), float(w), None if crit is None else complex(crit),
+                               o1, f"{name} at {fam.param} = {v:.6g} ± {w:.2g}", (va, vb)))
+    if ta["contacts"] != tb["contacts"]:
+        ca = ta["contacts"]
+        if locate:
+            v, o1, o2, w = _bisect(fam, like, va, oa, vb, ob,
+                                   lambda o: o.onsets_per_period == ca, locate_tol, tol)
+        else:
+            v, o1, o2, w = 0.5 * (va + vb), oa, ob, abs(vb - va)
+        with_contact = o1 if o1.onsets_per_period > o2.onsets_per_period else o2
+        speed = with_contact.min_approach_speed
+        detail = (f"grazing: contacts per period {o1.onsets_per_period} -> "
+                  f"{o2.onsets_per_period} at {fam.param} = {v:.6g} ± {w:.2g} (approach speed "
+                  f"{speed:.3g} on the contact side)")
+        out.append(Bifurcation("grazing", float(v), float(w), None, with_contact, detail, (va, vb)))
+    return out
+
+
+def period_doubled_orbit(system, param, bif: Bifurcation, *,
+                         tol: float | None = None) -> PeriodicOrbit:
+    """The period-2p orbit born at a located period doubling of the branch of ``system`` in
+    ``param``: guessed from x* + eps v (v the eigenvector of the multiplier near -1, eps from 1e-2
+    to 0.3 of the scales) at the end of the bifurcation's bracket where the p-orbit is unstable,
+    and refined by multiple shooting; an orbit whose halves coincide (the p-orbit itself) is not
+    accepted. The value is in ``result.settings['value']``."""
+    if bif.kind != "period_doubling" or bif.orbit is None:
+        raise InputError("bif: give a located period_doubling bifurcation")
+    o = bif.orbit
+    m = o.map
+    fam = Family(system, param)
+    w, V = np.linalg.eig(o.monodromy)
+    k = int(np.argmin(np.abs(w + 1.0)))
+    v = np.real(V[:, k])
+    v /= np.max(np.abs(v / m.scales))
+    va, vb = bif.between
+    # the p-orbit's side beyond the bifurcation: where its critical multiplier is below -1
+    side = vb if np.min(np.real(_critical(o))) > -1.0 else va
+    for eps in (1e-2, 3e-2, 1e-1, 3e-1):
+        for value in (bif.value + (side - bif.value) * frac for frac in (0.5, 1.0)):
+            mm = fam.map_at(value, m)
+            o2 = periodic_orbit(mm, 2 * o.period, o.points[0] + eps * v * m.scales, z=o.z[0],
+                                tol=tol, check=True)
+            if o2.converged:
+                spread = np.max(np.abs(mm.difference(o2.points[0], o2.points[o.period])
+                                       / mm.scales))
+                if spread > 10 * o2.tolerance:
+                    o2.settings["value"] = value
+                    return o2
+    raise InputError(f"no period-{2 * o.period} orbit found near the period doubling at "
+                     f"{bif.value:g} (only the period-{o.period} orbit)")
