@@ -1,0 +1,86 @@
+"""Continuation of periodic orbits (nld.analysis.continuation): a grazing bifurcation where the
+closed form puts it, a period doubling where the brute-force diagram doubles, the doubled branch,
+bad input (issue 24)."""
+import math
+
+import numpy as np
+import pytest
+
+from nld.analysis.continuation import Family, continue_orbit, period_doubled_orbit
+from nld.analysis.orbits import periodic_orbit, section_points
+from nld.errors import InputError
+from nld.systems import StroboscopicMap, duffing, henon, impact_oscillator
+
+
+@pytest.fixture(scope="module")
+def impact_orbit():
+    S = impact_oscillator()
+    return S, periodic_orbit(S, 1, [1.8, 0.3], rtol=1e-10)
+
+
+def test_grazing_located_where_the_free_orbit_reaches_the_stop(impact_orbit):
+    # the free (no-contact) orbit is harmonic with amplitude F / sqrt((1 - w^2)^2 + (2 zeta w)^2):
+    # the impacting orbit grazes the stop when d reaches that amplitude
+    S, o = impact_orbit
+    zeta, w, F = S.p[0], S.p[1], S.p[2]
+    d_graze = F / math.sqrt((1 - w * w) ** 2 + (2 * zeta * w) ** 2)
+    for method, kw in (("natural", dict(values=np.linspace(1.5, 3.0, 16))),
+                       ("arclength", dict(range=(1.5, 3.0)))):
+        br = continue_orbit(S, o, "d", **kw)
+        graze = [b for b in br.bifurcations if b.kind == "grazing"]
+        assert len(graze) == 1, method
+        g = graze[0]
+        assert abs(g.value - d_graze) <= max(g.tolerance, 1e-6) + 1e-6, (method, g.value, d_graze)
+        assert g.orbit.onsets_per_period == 1 and g.orbit.min_approach_speed < 0.01
+        # beyond it the orbit is the free harmonic one, no contact, multiplier modulus exp(-zeta T)
+        far = br.orbits[-1]
+        assert far.onsets_per_period == 0
+        assert abs(far.max_abs_multiplier - math.exp(-zeta * 2 * math.pi / w)) < 1e-7
+        tab = br.table()
+        assert len(tab) == len(br.values) and set(tab["stable"]) <= {"stable", "unstable", ""}
+
+
+def test_period_doubling_where_the_brute_force_diagram_doubles():
+    S = duffing(gamma=0.20)
+    o = periodic_orbit(S, 1, transient=50, rtol=1e-10)
+    br = continue_orbit(S, o, "gamma", range=(0.20, 0.30), step=0.005)
+    pds = [b for b in br.bifurcations if b.kind == "period_doubling"]
+    assert len(pds) == 1
+    g = pds[0].value
+    assert abs(pds[0].multiplier + 1.0) < 1e-3
+    # brute force: the stroboscopic section after a long transient, just below and above
+    periods = []
+    for gg in (g - 0.005, g + 0.005):
+        m = StroboscopicMap(duffing(gamma=gg, y0=o.points[0]), 1, 1e-10)
+        X, _ = section_points(m, m.y0, m.z0, 300)
+        tail = X[-8:, 0]
+        periods.append(1 if np.ptp(tail) < 1e-6 else (2 if np.ptp(tail[::2]) < 1e-6 else 0))
+    assert periods == [1, 2]
+    o2 = period_doubled_orbit(S, "gamma", pds[0])
+    assert o2.period == 2 and o2.converged and o2.stable is True
+    assert np.max(np.abs(o2.points[0] - o2.points[1])) > 1e-3
+
+
+def test_bad_continuation_input_is_refused(impact_orbit):
+    S, o = impact_orbit
+    with pytest.raises(InputError, match="param"):
+        continue_orbit(S, o, "stiffness", np.linspace(1.5, 2.0, 3))
+    with pytest.raises(InputError, match="do not contain the start"):
+        continue_orbit(S, o, "d", np.linspace(2.0, 3.0, 5))
+    with pytest.raises(InputError, match="values"):
+        continue_orbit(S, o, "d", [1.5])
+    with pytest.raises(InputError, match="give values"):
+        continue_orbit(S, o, "d")
+    with pytest.raises(InputError, match="param"):
+        Family(henon(), 7)
+
+
+def test_scene_parameter_family_keeps_one_kernel():
+    from nld.systems import SceneSystem
+    S = SceneSystem("slider_crank_olyaei")
+    fam = Family(S, "joints.B.friction.mu")
+    assert fam.value0 == pytest.approx(0.1)
+    s2 = fam.at(0.05)
+    assert s2.kernel.key == S.kernel.key and not np.array_equal(s2.p, S.p)
+    with pytest.raises(InputError, match="no such scene key"):
+        Family(S, "joints.B.friction.muu")
