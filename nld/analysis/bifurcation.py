@@ -216,8 +216,9 @@ def _sorted(df: pd.DataFrame) -> pd.DataFrame:
 # the sweep
 
 
-def parse_values(text: str) -> list[float]:
-    """``"100:500:9"`` -> 9 values from 100 to 500 (linspace, ends included); ``"1,2,5"`` -> a list."""
+def parse_values(text: str, name: str = "--values") -> list[float]:
+    """``"100:500:9"`` -> 9 values from 100 to 500 (linspace, ends included); ``"1,2,5"`` -> a list.
+    A value given twice (``300:300:3``, ``1,1``) -> InputError naming ``name``."""
     text = str(text).strip()
     try:
         if ":" in text:
@@ -227,14 +228,21 @@ def parse_values(text: str) -> list[float]:
             a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
             if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
                 raise ValueError
-            return [float(v) for v in np.linspace(a, b, n)]
-        vals = [float(v) for v in text.split(",") if v.strip()]
-        if not vals:
-            raise ValueError
-        return vals
+            vals = [float(v) for v in np.linspace(a, b, n)]
+        else:
+            vals = [float(v) for v in text.split(",") if v.strip()]
+            if not vals or not all(math.isfinite(v) for v in vals):
+                raise ValueError
     except ValueError:
-        raise InputError(f"--values = {text!r}: give START:STOP:NUM (e.g. 100:500:9) or a "
-                         "comma-separated list of numbers") from None
+        raise InputError(f"{name} = {text!r}: give START:STOP:NUM (e.g. 100:500:9) or a "
+                         "comma-separated list of finite numbers") from None
+    if len(set(vals)) < len(vals):
+        twice = next(v for v in vals if vals.count(v) > 1)
+        hint = ("START = STOP gives NUM identical values: give NUM = 1 or another STOP"
+                if ":" in text else "give each value once")
+        raise InputError(f"{name} = {text!r}: the value {twice:g} appears {vals.count(twice)} "
+                         f"times (the same point computed again); {hint}")
+    return vals
 
 
 def _current_value(raw: dict, key: str):

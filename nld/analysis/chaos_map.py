@@ -387,6 +387,8 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
             and 1.0 <= check_span <= 100.0):
         raise InputError(f"check_span = {check_span!r}: must be a number in [1, 100] (the check's "
                          "averaging span over the exponent's)")
+    from nld.analysis.lyapunov import check_seed
+    seed = check_seed(seed)
     spec = _bif._Spec(raw=raw, source=sc.source, param=keys_x[0], transient_revs=transient_revs,
                       revs=revs, observables=[observable] if observable else None,
                       rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
@@ -396,7 +398,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
                       cache_dir=os.environ.get("NLD_CACHE_DIR"),
                       lyapunov_estimator=estimator)
     job = _Job(spec=spec, keys_x=keys_x, keys_y=keys_y, observable=observable,
-               d0=None if d0 is None else float(d0), seed=int(seed), zero_one=zero_one,
+               d0=None if d0 is None else float(d0), seed=seed, zero_one=zero_one,
                rtol_check=None if rtol_check is None else float(rtol_check),
                check_span=float(check_span), min_section_points=int(min_section_points),
                lyapunov_method=lyapunov_method, estimator=estimator)

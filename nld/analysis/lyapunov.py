@@ -258,6 +258,31 @@ def _units(system) -> str:
     return "1/iteration" if system.is_map else f"1/{system.time_unit}"
 
 
+# the record of local rates (one row of k values per renormalisation interval) must fit in this
+MAX_RECORD_BYTES = 2**30
+
+
+def max_intervals(k: int = 1) -> int:
+    """The most renormalisation intervals a run of k exponents may record (MAX_RECORD_BYTES)."""
+    return MAX_RECORD_BYTES // (8 * max(1, int(k)))
+
+
+def _check_record(name: str, value, n_int: int, k: int, interval: float, unit: str) -> None:
+    """InputError naming ``name`` when ``n_int`` intervals of ``k`` rates do not fit in memory."""
+    limit = max_intervals(k)
+    if n_int > limit:
+        raise InputError(f"{name} = {value!r}: {n_int:.3g} renormalisation intervals of {interval:g} "
+                         f"{unit} would need {n_int * 8 * k / 2**30:.3g} GiB for their record; at most "
+                         f"{limit:.3g} intervals ({limit * interval:.3g} {unit}) with k = {k}")
+
+
+def check_seed(seed, name: str = "seed") -> int:
+    """``seed`` as an int >= 0 (numpy's generators take no negative seed), else InputError."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"{name} = {seed!r}: must be a whole number >= 0")
+    return int(seed)
+
+
 def _check_positive(name, v):
     if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v > 0):
         raise InputError(f"{name} = {v!r}: must be a positive number")
@@ -385,6 +410,7 @@ def _map_settings(system, transient, total, renorm_interval):
     n_int = int(total) // int(every)
     if n_int < 2:
         raise InputError(f"total = {total!r}: need at least two renormalisation intervals")
+    _check_record("total", total, n_int, system.n, int(every), "iterations")
     return int(transient), n_int, int(every)
 
 
@@ -413,6 +439,8 @@ def _flow_settings(system, transient, total, renorm_interval, d0, rtol, spectrum
     if n_int < 2:
         raise InputError(f"total = {total!r}: need at least two renormalisation intervals "
                          f"of {renorm_interval:g}")
+    _check_record("total", total, n_int, system.n if spectrum else 1, float(renorm_interval),
+                  system.time_unit)
     return float(transient), n_int, float(renorm_interval), float(d0), float(rtol)
 
 
@@ -477,7 +505,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
     is their mean. A renormalisation that moves the perturbed state across an event surface
     (a contact onset) reports the crossing to the system's ``on_event`` (see _cross_events).
     """
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed(seed))
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
     if system.is_map:
         n_tr, n_int, every = _map_settings(system, transient, total, renorm_interval)
@@ -587,7 +615,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
     k = n if k is None else int(k)
     if not 1 <= k <= n:
         raise InputError(f"k = {k!r}: must be between 1 and the number of states {n}")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed(seed))
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
     Q0 = np.linalg.qr(rng.standard_normal((n, k)))[0]
     Q0 = np.ascontiguousarray(Q0)
@@ -738,6 +766,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         raise InputError(f"k = {k!r}: must be a whole number between 1 and the number of "
                          f"states {n}")
     k = int(k)
+    seed = check_seed(seed)
     base = system.period if system.period is not None else 1.0
     d = DEFAULTS["tangent"]
     if renorm_interval is None:
@@ -770,7 +799,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     if n_int < 2:
         raise InputError(f"total = {total!r}: need at least two renormalisation intervals of {T:g}")
     _, how = tangent_functions(system)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed(seed))
     y, z = system.y0.copy(), system.z0.copy()
     t = system.t0
     if transient > 0:
@@ -791,8 +820,12 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     logs: list[np.ndarray] = []
     n_target = n_int
     n_max = n_int if target_uncertainty is None else int(round(max_total / T))
+    if target_uncertainty is None:
+        _check_record("total", total, n_max, k, T, system.time_unit)
+    else:
+        _check_record("max_total", max_total, n_max, k, T, system.time_unit)
     chunk = max(1, int(round((base if system.period is not None else 1.0) / T)))
-    chunk = max(chunk, n_int // 200)
+    chunk = min(max(chunk, n_int // 200), 100_000)
     bar = _progress_bar(n_max * T / base, f"lyapunov {system.name}",
                         "rev" if getattr(system, "period_name", "") == "revolution" else
                         ("periods" if system.period is not None else system.time_unit), progress)

@@ -96,13 +96,20 @@ def count_arg(name: str, minimum: int):
     return conv
 
 
-def values_arg(text: str):
-    """argparse type of a swept value list: START:STOP:NUM (ends included) or V1,V2,..."""
-    from nld.analysis.bifurcation import parse_values
-    try:
-        return parse_values(text)
-    except InputError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
+def values_of(name: str):
+    """argparse type of a swept value list: START:STOP:NUM (ends included) or V1,V2,...; the
+    message names the option ``name``."""
+    def conv(text: str):
+        from nld.analysis.bifurcation import parse_values
+        try:
+            return parse_values(text, name)
+        except InputError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    conv.__name__ = name
+    return conv
+
+
+values_arg = values_of("--values")
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from nld.cli.args import count_arg, number_arg, rtol_arg, values_arg
+from nld.cli.args import count_arg, number_arg, rtol_arg, values_of
 from nld.errors import InputError
 from nld.settings import BENETTIN, CHAOS_MAP_SPANS, LYAPUNOV
 
@@ -25,10 +25,10 @@ def add_parser(sub):
     sp.add_argument("--x", required=True, metavar="KEY[,KEY...]",
                     help="x parameter: a --set key, or comma-separated keys set to the same value "
                          "(e.g. joints.A.clearance,joints.B.clearance)")
-    sp.add_argument("--x-values", required=True, type=values_arg,
+    sp.add_argument("--x-values", required=True, type=values_of("--x-values"),
                     metavar="START:STOP:NUM|V1,V2,...", help="x values (ends included) or a list")
     sp.add_argument("--y", required=True, metavar="KEY[,KEY...]", help="y parameter (as --x)")
-    sp.add_argument("--y-values", required=True, type=values_arg,
+    sp.add_argument("--y-values", required=True, type=values_of("--y-values"),
                     metavar="START:STOP:NUM|V1,V2,...", help="y values")
     sp.add_argument("--out", required=True, metavar="DIR",
                     help="output directory (parquet per cell + provenance.json)")
@@ -57,7 +57,8 @@ def add_parser(sub):
                          "scenes, see docs/lyapunov.md)")
     sp.add_argument("--d0", type=number_arg("--d0"), default=None, metavar="D0",
                     help=f"initial separation of --estimator benettin, scaled norm (default {BENETTIN.d0:g})")
-    sp.add_argument("--seed", type=int, default=0, help="seed of the perturbation direction (0)")
+    sp.add_argument("--seed", type=count_arg("--seed", 0), default=0,
+                    help="seed of the perturbation direction, a whole number >= 0 (default 0)")
     sp.add_argument("--observable", default=None, metavar="COL",
                     help="section observable of the 0-1 test (default <first clearance joint>.ex)")
     sp.add_argument("--workers", type=count_arg("--workers", 1), default=None, metavar="N",
@@ -88,8 +89,9 @@ def cmd_chaos_map(args) -> int:
     from nld.analysis.chaos_map import chaos_map, chaos_map_plot, param_label
     kx, ky = split_keys(args.x), split_keys(args.y)
     lx, ly = param_label(kx), param_label(ky)
-    if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise InputError(f"--plot = {args.plot!r}: give a .png, .pdf or .svg file")
+    if args.plot is not None:          # refused before the (long) map, not after it
+        from nld.output.io import check_figure_path
+        check_figure_path(args.plot, "--plot")
 
     from nld.progress import write
 
@@ -124,10 +126,18 @@ def cmd_chaos_map(args) -> int:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+
+        from nld.output.io import save_figure
         fig = chaos_map_plot(df, title=f"{df.attrs['provenance'].get('scene', args.scene)}: "
                                        "largest Lyapunov exponent")
-        fig.savefig(args.plot, dpi=150, bbox_inches="tight")
-        plt.close(fig)
+        try:
+            save_figure(fig, args.plot, dpi=150, bbox_inches="tight")
+        except InputError as e:
+            raise InputError(f"{e}; the {len(df)} cells are kept in {args.out} (plot them with "
+                             "nld.analysis.chaos_map.chaos_map_plot, or run again with --resume "
+                             "and another --plot)") from None
+        finally:
+            plt.close(fig)
         print(f"wrote {args.plot}")
     n_failed = int((df["status"] != "ok").sum())
     if n_failed:

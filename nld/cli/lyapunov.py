@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from nld.cli.args import progress_kw
+from nld.cli.args import count_arg, number_arg, progress_kw
 from nld.errors import InputError
 from nld.settings import BENETTIN, LYAPUNOV, TANGENT, TANGENT_SPANS
 
@@ -13,14 +13,16 @@ def add_parser(sub) -> None:
                         description="Largest Lyapunov exponent (or the first K with --k) from the "
                                     "tangent dynamics with saltation at every contact event "
                                     "(nld.analysis.lyapunov.lyapunov_tangent), in 1/s and per crank "
-                                    "revolution, with its uncertainty (about 95 %%) and the settings "
+                                    "revolution, with its uncertainty (about 95 %) and the settings "
                                     "that produced it. --estimator benettin uses the two-trajectory "
                                     "method instead; --check computes both and says whether they agree.")
     sp.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a TOML file")
     sp.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                     help="override a scene value (repeatable)")
-    sp.add_argument("--transient", type=float, default=TANGENT_SPANS.transient_revs, metavar="REVS",
-                    help=f"transient in crank revolutions (default {TANGENT_SPANS.transient_revs:g})")
+    sp.add_argument("--transient", type=number_arg("--transient", positive=False),
+                    default=TANGENT_SPANS.transient_revs, metavar="REVS",
+                    help=f"transient in crank revolutions, >= 0 (default {TANGENT_SPANS.transient_revs:g}; "
+                         "0: measure from the start)")
     sp.add_argument("--revs", type=float, default=TANGENT_SPANS.revs, metavar="REVS",
                     help=f"averaging length in crank revolutions (default {TANGENT_SPANS.revs:g}; the minimum with "
                          "--target-uncertainty)")
@@ -28,7 +30,7 @@ def add_parser(sub) -> None:
                     help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
     sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
                     help="tangent dynamics with saltation (default) or two trajectories (Benettin)")
-    sp.add_argument("--k", type=int, default=1, metavar="K",
+    sp.add_argument("--k", type=count_arg("--k", 1), default=1, metavar="K",
                     help="number of exponents (tangent estimator; default 1)")
     sp.add_argument("--renorm", type=float, default=None, metavar="REVS",
                     help=f"re-orthonormalisation interval in revolutions (default "
@@ -50,14 +52,39 @@ def add_parser(sub) -> None:
                          "benchmarks/results/lyapunov.md)")
     sp.add_argument("--d0", type=float, default=BENETTIN.d0,
                     help=f"initial separation of the Benettin estimator, scaled norm (default {BENETTIN.d0:g})")
-    sp.add_argument("--seed", type=int, default=0, help="seed of the initial perturbation (default 0)")
+    sp.add_argument("--seed", type=count_arg("--seed", 0), default=0,
+                    help="seed of the initial perturbation, a whole number >= 0 (default 0)")
     sp.add_argument("--method", choices=("dopri5", "dop853", "rodas"), default=LYAPUNOV.method,
                     help=f"integrator of the Benettin trajectories (default {LYAPUNOV.method}; the tangent "
                          "estimator always uses its DOPRI5; rodas is experimental)")
-    sp.add_argument("--spectrum", type=int, default=0, metavar="K",
+    sp.add_argument("--spectrum", type=count_arg("--spectrum", 0), default=0, metavar="K",
                     help="also the first K exponents by the perturbation-vector method")
     sp.add_argument("--json", action="store_true", help="print the result as JSON")
     sp.set_defaults(func=cmd_lyapunov)
+
+
+def check_revs(args) -> None:
+    """InputError naming --revs (or --max-revs) when the record of the local rates would not fit
+    in memory (nld.analysis.lyapunov.MAX_RECORD_BYTES), with the largest possible value."""
+    from nld.analysis.lyapunov import MAX_RECORD_BYTES, max_intervals
+    if args.estimator == "tangent":
+        per_rev = 1.0 / (args.renorm if args.renorm is not None else TANGENT.interval_revs)
+    else:
+        per_rev = 1.0 / (args.renorm if args.renorm is not None else BENETTIN.interval_revs)
+    name, revs = "--revs", args.revs
+    if args.estimator == "tangent" and args.target_uncertainty is not None:
+        name, revs = ("--max-revs", args.max_revs) if args.max_revs is not None else \
+            ("--revs", TANGENT.max_total_factor * args.revs)
+    k = max(args.k, args.spectrum)
+    most = max_intervals(k) / per_rev
+    if name == "--revs" and revs != args.revs:
+        most /= TANGENT.max_total_factor        # --target-uncertainty averages up to 10 x --revs
+    if revs * per_rev > max_intervals(k):
+        raise InputError(f"{name} = {getattr(args, name[2:].replace('-', '_')):g}: too long to record: "
+                         f"{revs * per_rev:.3g} renormalisation intervals ({per_rev:g} per revolution"
+                         f"{f', k = {k}' if k > 1 else ''}) would need "
+                         f"{revs * per_rev * 8 * k / 2**30:.3g} GiB; at most {most:.3g} revolutions "
+                         f"({MAX_RECORD_BYTES / 2**30:g} GiB)")
 
 
 def cmd_lyapunov(args) -> int:
@@ -66,19 +93,32 @@ def cmd_lyapunov(args) -> int:
     from nld.analysis.lyapunov import lyapunov_benettin, lyapunov_spectrum, lyapunov_tangent
     from nld.systems.core import SceneSystem
     from nld.run.simulate import provenance
-    for name in ("transient", "revs", "rtol", "d0"):
+    for name in ("revs", "rtol", "d0"):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
             raise InputError(f"--{name.replace('_', '-')} = {v!r}: must be a positive number")
+    if not (math.isfinite(args.transient) and args.transient >= 0):
+        raise InputError(f"--transient = {args.transient!r}: must be a number of revolutions >= 0")
     if args.revs < 1:
         raise InputError(f"--revs = {args.revs!r}: must be at least 1 revolution")
     if args.renorm is not None and not (math.isfinite(args.renorm) and args.renorm > 0):
         raise InputError(f"--renorm = {args.renorm!r}: must be a positive number of revolutions")
+    if args.max_revs is not None and not (math.isfinite(args.max_revs) and args.max_revs >= args.revs):
+        raise InputError(f"--max-revs = {args.max_revs!r}: must be a number of revolutions >= --revs "
+                         f"({args.revs:g})")
+    if args.target_uncertainty is not None and not (math.isfinite(args.target_uncertainty)
+                                                    and 0 < args.target_uncertainty < 1):
+        raise InputError(f"--target-uncertainty = {args.target_uncertainty!r}: must be a relative "
+                         "uncertainty in (0, 1), e.g. 0.05")
     if args.estimator == "benettin" and args.state_error_only:
         raise InputError("--state-error-only: an option of the tangent estimator, not of benettin")
     if args.estimator == "benettin" and (args.k != 1 or args.target_uncertainty is not None):
         raise InputError("--estimator benettin: gives lambda1 only, without --k or "
                          "--target-uncertainty (use the tangent estimator)")
+    if args.check and args.k != 1:
+        raise InputError(f"--check with --k {args.k}: the check compares lambda1 of the two "
+                         "estimators; run it without --k (or with --k 1)")
+    check_revs(args)
     system = SceneSystem(args.scene, args.overrides, method=args.method)
     if system.period is None:
         raise InputError(f"scene {system.name!r} has no crank speed: --revs needs a driven crank")
@@ -89,7 +129,7 @@ def cmd_lyapunov(args) -> int:
                                rtol=args.rtol, seed=args.seed, renorm_interval=renorm,
                                target_uncertainty=args.target_uncertainty,
                                max_total=None if args.max_revs is None else args.max_revs * T,
-                               progress=args.progress, check=args.check and args.k == 1,
+                               progress=args.progress, check=args.check,
                                tangent_err=not args.state_error_only)
     else:
         res = lyapunov_benettin(system, transient=args.transient * T, total=args.revs * T,
