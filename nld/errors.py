@@ -39,3 +39,15 @@ class Interrupted(KeyboardInterrupt):
 class InputTypeError(InputError, TypeError):
     """An argument of the wrong type (``revs='abc'``, ``scene=None``): both an InputError (a
     ValueError) and a TypeError, so either ``except`` catches it."""
+
+
+class AssemblyError(InputError, SolveError):
+    """A mechanism that cannot be assembled at its start (link lengths that cannot close a loop,
+    a ground point out of reach): bad input (exit status 2 on the command line) that is also a
+    SolveError for code that catches those. ``joint``: the joint whose loop does not close;
+    ``gap``: its largest constraint residual (m)."""
+
+    def __init__(self, message: str, joint: str | None = None, gap: float | None = None):
+        super().__init__(message)
+        self.joint = joint
+        self.gap = gap

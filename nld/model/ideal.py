@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from nld.errors import SceneError, SolveError
+from nld.errors import AssemblyError, SceneError, SolveError
 from nld.model.scene_model import Scene
 
 __all__ = ["assemble", "ideal_solution", "loop_closure_error", "POSITION_TOL", "MAX_NEWTON_ITER"]
@@ -332,10 +332,50 @@ class _Model:
                 raise SolveError(f"ideal assembly {where}: constraint Jacobian is singular "
                                  f"(iteration {it}, residual {res:.3g})")
             qe[0, : self.nb] += dq.reshape(self.nb, 3)
-        raise SolveError(f"ideal assembly {where}: Newton-Raphson did not converge in "
-                         f"{MAX_NEWTON_ITER} iterations (max |Phi| = {res:.3g}, tolerance "
-                         f"{POSITION_TOL:g} m); the mechanism may not close with these lengths "
-                         f"or the angle hints pick no reachable configuration")
+        joint, gap = self.worst_joint(F[0]) if np.all(np.isfinite(F)) else (None, res)
+        raise NotClosed(f"ideal assembly {where}: Newton-Raphson did not converge in "
+                        f"{MAX_NEWTON_ITER} iterations (max |Phi| = {res:.3g}, tolerance "
+                        f"{POSITION_TOL:g} m); the mechanism may not close with these lengths "
+                        f"or the angle hints pick no reachable configuration", joint, gap)
+
+    def worst_joint(self, F):
+        """(name, residual) of the joint (or "driver") with the largest constraint residual."""
+        names = [None] * self.m
+        for k, jn in enumerate(self.rev_names):
+            names[self.rev_r0[k]] = names[self.rev_r1[k]] = jn
+        for k, jn in enumerate(self.pri_names):
+            names[self.pn_rows[k]] = names[self.row_pa + k] = jn
+        if self.crank is not None:
+            names[self.row_drv] = "driver"
+        i = int(np.argmax(np.abs(F)))
+        return names[i], float(abs(F[i]))
+
+    def loop_of(self, joint: str) -> list[str]:
+        """The joints of the shortest loop through ``joint`` (it first), [joint] if none."""
+        sc = self.scene
+        if joint not in sc.joints:
+            return [joint]
+        a, b = sc.joints[joint].bodies
+        prev = {a: None}
+        queue = [a]
+        while queue:
+            body = queue.pop(0)
+            if body == b:
+                break
+            for jn, j in sc.joints.items():
+                if jn == joint or body not in j.bodies:
+                    continue
+                other = j.bodies[1] if j.bodies[0] == body else j.bodies[0]
+                if other not in prev:
+                    prev[other] = (body, jn)
+                    queue.append(other)
+        if b not in prev:
+            return [joint]
+        path, body = [], b
+        while prev[body] is not None:
+            body, jn = prev[body]
+            path.append(jn)
+        return [joint] + path[::-1]
 
     def check_rank(self, J, where, need_full_column_rank=False):
         """SolveError when the Jacobians [N, m, n] are singular (condition number > 1e12)."""
@@ -505,12 +545,48 @@ def assemble(scene: Scene, t: float = 0.0, guess=None):
     """
     mdl = _model(scene)
     q0 = mdl.initial_guess(t) if guess is None else np.asarray(guess, float).reshape(mdl.nb, 3)
-    q, _ = mdl.newton(q0, t, f"at t = {t:g} s")
+    try:
+        q, _ = mdl.newton(q0, t, f"at t = {t:g} s")
+    except NotClosed as e:
+        if guess is not None or e.joint is None:
+            raise
+        raise cannot_assemble(mdl, e.joint, e.gap, t) from None
     qe = mdl.extend(q[None])
     J = mdl.jac(qe)
     mdl.check_rank(J, f"at t = {t:g} s")
     qd = mdl.solve_lin(J, -mdl.phi_t()[None])[0]
     return q, qd.reshape(mdl.nb, 3)
+
+
+class NotClosed(SolveError):
+    """Newton-Raphson found no configuration (a SolveError: exit status 1 during a motion; at the
+    start it becomes an AssemblyError, bad input). joint, gap: the joint of the largest residual."""
+
+    def __init__(self, message: str, joint: str | None, gap: float):
+        super().__init__(message)
+        self.joint = joint
+        self.gap = gap
+
+
+def cannot_assemble(mdl, joint: str, gap: float, t: float) -> AssemblyError:
+    """The one-line error of a mechanism whose loop through ``joint`` does not close."""
+    sc = mdl.scene
+    if joint == "driver":
+        where = (f"the driven crank cannot reach driver.angle0 + speed t = "
+                 f"{float(mdl.driver_angle(t)):.6g} rad")
+    else:
+        loop = mdl.loop_of(joint)
+        bodies = []
+        for jn in loop:
+            for b in sc.joints[jn].bodies:
+                if b not in bodies:
+                    bodies.append(b)
+        where = (f"the loop of joints {'-'.join(loop)} (bodies {', '.join(bodies)}) does not close "
+                 f"at joint {joint} (gap {gap:.3g} m)")
+    return AssemblyError(f"scene {sc.name!r} cannot be assembled at t = {t:g} s: {where} with these "
+                         "link lengths and ground points; check the bodies' points and "
+                         "ground.points (or the angle0 hints, which pick the assembly branch)",
+                         joint, gap)
 
 
 def ideal_solution(scene: Scene, times) -> pd.DataFrame:
@@ -550,7 +626,12 @@ def ideal_solution(scene: Scene, times) -> pd.DataFrame:
             L = _lagrange_weights(ts, t[k])
             if L is not None:
                 qk = np.tensordot(L, q[max(0, k - 3):k], axes=1)
-        qk, _ = mdl.newton(qk, t[k], f"at t = {t[k]:g} s")
+        try:
+            qk, _ = mdl.newton(qk, t[k], f"at t = {t[k]:g} s")
+        except NotClosed as e:
+            if k > 0 or e.joint is None:
+                raise                 # the motion reached a locked configuration: a SolveError
+            raise cannot_assemble(mdl, e.joint, e.gap, float(t[0])) from None
         q[k] = qk
 
     qe = mdl.extend(q)

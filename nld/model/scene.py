@@ -408,6 +408,7 @@ PLAUSIBLE = {
     "inertia": (1e-18, 1e9),        # kg m^2
     "speed": (0.0, 1e5),            # |rad/s| (about 955 000 rpm)
     "length": (0.0, 1e3),           # |m|: point coordinates, journal radii
+    "friction": (0.0, 5.0),         # friction coefficients mu, mu_s (-): rubber on dry surfaces ~ 1-3
 }
 
 
@@ -686,15 +687,20 @@ def _friction(f: dict, path: str) -> Friction:
     v1 = _num(f, "v1", path, "m/s", d.v1)
     if not v1 > v0:
         raise SceneError(f"{path}.v1", f.get("v1", d.v1), f"must be > v0 = {v0!r} (m/s)")
-    mu = _num(f, "mu", path, None, d.mu, ge=0)
+    mu = _num(f, "mu", path, "-", d.mu, ge=0, plausible="friction")
+    law = _choice(f, "law", path, FRICTION_LAWS, d.law)
     mu_s = None
     if f.get("mu_s") is not None:     # static coefficient of the coulomb law's stick mode (>= mu)
-        mu_s = _num(f, "mu_s", path, None, ge=0)
+        mu_s = _num(f, "mu_s", path, "-", ge=0, plausible="friction")
+        if law != "coulomb":
+            raise SceneError(f"{path}.mu_s", f["mu_s"], f"applies only to law = 'coulomb' (the static "
+                             f"coefficient of its stick mode), and {path}.law = {law!r}: remove mu_s "
+                             f"or set {path}.law = 'coulomb'")
         if not mu_s >= mu:
             raise SceneError(f"{path}.mu_s", f["mu_s"], f"must be >= mu = {mu!r} (static >= kinetic "
                              "friction coefficient, -)")
     return Friction(
-        law=_choice(f, "law", path, FRICTION_LAWS, d.law),
+        law=law,
         mu=mu,
         v0=v0, v1=v1,
         tangential_damping=_num(f, "tangential_damping", path, "N s/m", d.tangential_damping, ge=0),
