@@ -96,6 +96,54 @@ CLI_CASES = [
     ("set-malformed", ["show", "slider_crank", "--set", "joints.B.clearance"], 2, ["KEY=VALUE"]),
     ("quiet-and-progress", ["simulate", "slider_crank", "--quiet", "--progress"], 2,
      ["--progress", "--quiet"]),
+    # issue 27: tracebacks, inputs accepted without a word, unclear messages
+    ("lyapunov-seed-negative", ["lyapunov", "slider_crank", "--seed", "-1"], 2, ["--seed", "-1", ">= 0"]),
+    ("chaos-map-seed-negative", ["chaos-map", "slider_crank", "--x", "joints.B.clearance", "--x-values",
+                                 "1e-4", "--y", "driver.speed", "--y-values", "300", "--seed", "-1",
+                                 "--out", "{d}/map1"], 2, ["--seed", "-1", ">= 0"]),
+    ("chaos-map-plot-unwritable", ["chaos-map", "slider_crank", "--x", "joints.B.clearance",
+                                   "--x-values", "1e-4", "--y", "driver.speed", "--y-values", "300",
+                                   "--out", "{d}/map1", "--plot", "{d}/nodriver.toml/map.png"], 2,
+     ["--plot", "nodriver.toml/map.png", "a file is in the way"]),
+    ("lyapunov-k-check", ["lyapunov", "slider_crank", "--k", "4", "--check"], 2,
+     ["--check", "--k 4", "lambda1", "without --k"]),
+    ("lyapunov-spectrum-negative", ["lyapunov", "slider_crank", "--spectrum", "-2"], 2,
+     ["--spectrum", "-2", ">= 0"]),
+    ("lyapunov-k-0", ["lyapunov", "slider_crank", "--k", "0"], 2, ["--k", "0", ">= 1"]),
+    ("lyapunov-revs-1e12", ["lyapunov", "slider_crank", "--revs", "1e12"], 2,
+     ["--revs", "1e+12", "GiB", "at most 1.68e+07 revolutions"]),
+    ("lyapunov-max-revs-1e12", ["lyapunov", "slider_crank", "--target-uncertainty", "0.05",
+                                "--max-revs", "1e12"], 2, ["--max-revs", "1e+12", "GiB", "at most"]),
+    ("lyapunov-max-revs-below-revs", ["lyapunov", "slider_crank", "--revs", "20", "--max-revs", "5"], 2,
+     ["--max-revs", "5", ">= --revs (20)"]),
+    ("lyapunov-target-2", ["lyapunov", "slider_crank", "--target-uncertainty", "2"], 2,
+     ["--target-uncertainty", "2", "(0, 1)"]),
+    ("lyapunov-transient-negative", ["lyapunov", "slider_crank", "--transient", "-1"], 2,
+     ["--transient", "-1", ">= 0"]),
+    ("values-repeated-range", ["bifurcation", "slider_crank", "--param", "driver.speed", "--values",
+                               "300:300:3", "--out", "{d}/sweep1"], 2,
+     ["--values", "'300:300:3'", "300 appears 3 times", "NUM = 1"]),
+    ("values-repeated-list", ["bifurcation", "slider_crank", "--param", "driver.speed", "--values",
+                              "300,400,300", "--out", "{d}/sweep1"], 2, ["--values", "300 appears 2 times"]),
+    ("y-values-repeated", ["chaos-map", "slider_crank", "--x", "joints.B.clearance", "--x-values",
+                           "1e-4", "--y", "driver.speed", "--y-values", "300:300:2", "--out", "{d}/map1"], 2,
+     ["--y-values", "300 appears 2 times"]),
+    ("mu-s-not-coulomb", ["show", "slider_crank", "--set", "joints.B.friction.mu_s=0.3"], 2,
+     ["joints.B.friction.mu_s", "0.3", "law = 'coulomb'", "'none'"]),
+    ("mu-1e6", ["show", "excavator", "--set", "joints.A.friction.mu=1e6"], 2,
+     ["joints.A.friction.mu", "1000000", "plausible range", "5"]),
+    ("mu-s-1e6", ["show", "excavator", "--set", "joints.A.friction.mu_s=1e6"], 2,
+     ["joints.A.friction.mu_s", "plausible range"]),
+    ("hard-cases-unknown-option", ["hard-cases", "--fast"], 2, ["--fast", "'nld hard-cases --help'"]),
+    ("four-bar-ground-out-of-reach", ["simulate", "four_bar", "--set", "ground.points.C=[1.0, 0]",
+                                      "--revs", "0.1"], 2,
+     ["scene 'four_bar' cannot be assembled", "joints B-C-O-A", "at joint B", "link lengths"]),
+    ("four-bar-ideal-ground-out-of-reach", ["simulate", "four_bar", "--set", "ground.points.C=[1.0, 0]",
+                                            "--revs", "0.1", "--ideal"], 2,
+     ["cannot be assembled", "at joint B"]),
+    ("four-bar-crank-too-long", ["simulate", "four_bar", "--set", "bodies.crank.points.O=[-0.07, 0]",
+                                 "--set", "bodies.crank.points.A=[0.07, 0]", "--revs", "0.1"], 2,
+     ["cannot be assembled", "does not close"]),
 ]
 
 
@@ -146,6 +194,31 @@ def _strobo(**kw):
 
 
 sim = nld.simulate
+
+
+def _lyap(name, **kw):
+    import nld.analysis.lyapunov as L
+    from nld.systems import lorenz
+    return getattr(L, name)(lorenz(), **kw)
+
+
+def _map(**kw):
+    from nld.systems import core as S
+    args = dict(f=S.henon_f, x0=[0.0, 0.0], p=[1.4, 0.3], name="h")
+    args.update(kw)
+    return S.DiscreteMap(args.pop("f"), args.pop("x0"), **args)
+
+
+def _python_jac(x, p, J):       # a plain Python function (not numba)
+    J[:, :] = 0.0
+
+
+def _jit(src: str):
+    """A numba function jac(x, p, J) from its body (compiled when the map probes it)."""
+    from numba import njit
+    ns = {}
+    exec("def jac(x, p, J):\n" + "".join(f"    {ln}\n" for ln in src.splitlines()), ns)
+    return njit(ns["jac"])
 
 # (id, call, exception type, words in the message)
 API_CASES = [
@@ -201,6 +274,35 @@ API_CASES = [
     ("map-values-str", lambda: _chaos_map(values_x="abc"), InputTypeError, ["values_x = 'abc'"]),
     ("map-rtol", lambda: _chaos_map(rtol=0), InputError, ["rtol = 0"]),
     ("map-param-none", lambda: _chaos_map(param_x=None), InputError, ["param_x = None"]),
+    # issue 27
+    ("map-seed-negative", lambda: _chaos_map(seed=-1), InputError, ["seed = -1", ">= 0"]),
+    ("tangent-seed-negative", lambda: _lyap("lyapunov_tangent", total=1.0, seed=-1), InputError,
+     ["seed = -1", ">= 0"]),
+    ("benettin-seed-negative", lambda: _lyap("lyapunov_benettin", total=1.0, seed=-1), InputError,
+     ["seed = -1", ">= 0"]),
+    ("spectrum-seed-str", lambda: _lyap("lyapunov_spectrum", total=1.0, seed="x"), InputError,
+     ["seed = 'x'"]),
+    ("tangent-total-1e12", lambda: _lyap("lyapunov_tangent", total=1e12), InputError,
+     ["total = 1000000000000.0", "GiB", "at most 1.34e+08 intervals"]),
+    ("benettin-total-1e12", lambda: _lyap("lyapunov_benettin", total=1e12), InputError,
+     ["total = 1000000000000.0", "GiB", "at most 1.34e+08 intervals"]),
+    ("map-f-python", lambda: _map(f=_python_jac), InputError,
+     ["the map must be a numba-compiled function f(x, p, out)"]),
+    ("map-jacobian-python", lambda: _map(jacobian=_python_jac), InputError,
+     ["the Jacobian must be a numba-compiled function jac(x, p, J)"]),
+    ("map-jacobian-outside", lambda: _map(jacobian=_jit("for i in range(3):\n    J[i, 0] = 1.0\n"
+                                                        "    J[i, 1] = 1.0")), InputError,
+     ["jacobian", "writes outside", "(2, 2)"]),
+    ("map-jacobian-partial", lambda: _map(jacobian=_jit("J[0, 0] = 1.0")), InputError,
+     ["jacobian", "unwritten", "(2, 2)"]),
+    ("map-jacobian-signature", lambda: _map(jacobian=_jit("J[0, 0] = x[5]")), InputError,
+     ["jacobian"]),
+    ("mu-1e6", lambda: nld.load_scene("excavator", {"joints.A.friction.mu": 1e6}), SceneError,
+     ["joints.A.friction.mu", "plausible range"]),
+    ("mu-s-not-coulomb", lambda: nld.load_scene("slider_crank", {"joints.B.friction.mu_s": 0.1}),
+     SceneError, ["joints.B.friction.mu_s", "coulomb"]),
+    ("assembly", lambda: sim("four_bar", revs=0.1, overrides=["ground.points.C=[1.0, 0]"]),
+     InputError, ["cannot be assembled", "at joint B"]),
 ]
 
 
@@ -227,3 +329,81 @@ def test_plausible_ranges_leave_the_builtin_scenes_alone():
             assert 1e-9 <= b.mass <= 1e7
         for j in sc.joints.values():
             assert j.clearance == 0 or j.clearance < j.journal_radius
+
+
+def test_assembly_error_is_also_a_solve_error():
+    """A mechanism that cannot be assembled is bad input (exit status 2) that code catching
+    SolveError still catches."""
+    from nld.errors import AssemblyError, SolveError
+    with pytest.raises(SolveError) as ei:
+        sim("four_bar", revs=0.1, overrides=["ground.points.C=[1.0, 0]"])
+    assert isinstance(ei.value, AssemblyError) and ei.value.joint == "B"
+    assert ei.value.gap == pytest.approx(0.535, abs=0.01)
+
+
+def test_map_with_a_correct_numba_jacobian_is_accepted():
+    """The probe leaves correct maps alone (the built-in Henon with its Jacobian, and a user map)."""
+    from nld.systems import core as S
+    m = _map(jacobian=S.henon_jac)
+    assert m.n == 2 and m.jacobian is S.henon_jac
+    assert S.henon().n == 2 and S.logistic().n == 1
+
+
+def test_lyapunov_transient_0_is_accepted(capsys):
+    """--transient 0 (measure from the start) is a valid request (issue 27: it was refused)."""
+    import json
+    rc = main(["lyapunov", "slider_crank", "--transient", "0", "--revs", "2", "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    res = json.loads(out)
+    assert res["transient_revs"] == 0 and res["averaged_revs"] == pytest.approx(2.0)
+
+
+def test_lyapunov_help_shows_a_plain_percent(capsys):
+    """The description is not %-formatted by argparse: "95 %%" was printed as it is."""
+    from nld.cli import build_parser
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["lyapunov", "--help"])
+    out = capsys.readouterr().out
+    assert "about 95 %)" in " ".join(out.split()) and "%%" not in out
+
+
+def test_source_date_epoch_malformed_is_refused_before_the_study(monkeypatch, tmp_path, capsys):
+    """SOURCE_DATE_EPOCH=abc: one line naming the variable, exit 2, before the study runs
+    (issue 27: a ValueError traceback)."""
+    from nld.output.report import source_date_epoch
+    d = tmp_path / "studies"
+    d.mkdir()
+    (d / "s.py").write_text("def main(quick, out_dir):\n    raise SystemExit('ran')\n")
+    monkeypatch.setenv("NLD_STUDIES_DIR", str(d))
+    for bad in ("abc", "1.5", "-1", "1e20"):
+        monkeypatch.setenv("SOURCE_DATE_EPOCH", bad)
+        with pytest.raises(InputError, match="SOURCE_DATE_EPOCH"):
+            source_date_epoch()
+        rc = main(["study", "s", "--quick", "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err
+        assert rc == 2, err
+        assert err.startswith(f"nld: error: SOURCE_DATE_EPOCH = {bad!r}") and len(err.splitlines()) == 1
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", " 1700000000 ")
+    assert source_date_epoch() == 1700000000
+
+
+def test_corrupt_point_file_through_the_loaders(tmp_path):
+    """load_sweep / load_chaos_map on a directory with a corrupt point file: an InputError naming
+    the file and saying how to recompute it (issue 27: a pyarrow exception)."""
+    import pandas as pd
+
+    from nld.analysis.bifurcation import load_sweep
+    from nld.analysis.chaos_map import load_chaos_map
+    from nld.sweeps.store import ResultStore
+    store = ResultStore(tmp_path)
+    store.prepare({"kind": "test"}, settings=(), resume=False)
+    store.write({"direction": "grid", "index": 0, "table": pd.DataFrame({"value": [1.0]})})
+    bad = store.point_path("grid", 1)
+    bad.write_bytes(b"PAR1 cut short")
+    for load in (load_sweep, load_chaos_map):
+        with pytest.raises(InputError) as ei:
+            load(tmp_path)
+        msg = str(ei.value)
+        assert msg.startswith(f"point file {bad} cannot be read") and "--resume" in msg
+        assert "\n" not in msg

@@ -128,6 +128,18 @@ def test_broken_pipe_exits_quietly_with_141(tmp_path):
     assert err == ""
 
 
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("argv", [["scenes"], ["show", "excavator"]], ids=["scenes", "show"])
+def test_full_disk_on_stdout_is_one_line_and_exit_1(tmp_path, argv):
+    """Standard output on a full disk (``nld scenes > /dev/full``): one line saying so and exit
+    status 1, no traceback (issue 27: OSError [Errno 28] as a traceback)."""
+    with open("/dev/full", "w") as full:
+        p = subprocess.run([sys.executable, "-m", "nld", *argv], cwd=tmp_path, env=_env(),
+                           stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert p.returncode == 1, p.stderr
+    assert p.stderr == "nld: error: cannot write to standard output: No space left on device\n"
+
+
 # ----------------------------------------------------------------------------- chunked integration
 
 

@@ -193,8 +193,10 @@ def check_figure_path(path, option: str = "--plot") -> Path:
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"{option} = {str(path)!r}: cannot create its directory "
-                         f"({e.strerror or e})") from None
+        why = "a file is in the way" if isinstance(e, (FileExistsError, NotADirectoryError)) \
+            else (e.strerror or str(e))
+        raise InputError(f"{option} = {str(path)!r}: cannot create its directory {p.parent} "
+                         f"({why})") from None
     if not os.access(p.parent, os.W_OK):
         raise InputError(f"{option} = {str(path)!r}: its directory {p.parent} is not writable")
     return p

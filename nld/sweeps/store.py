@@ -142,8 +142,19 @@ class ResultStore:
         return len(self.files())
 
     def records(self, group: str | None = None) -> list[dict]:
-        """Every finished point (of one group) as a record, in file-name order."""
-        return [read_point(p) for p in self.files(group)]
+        """Every finished point (of one group) as a record, in file-name order; a file that
+        cannot be read (cut short, corrupt) -> InputError naming it and saying how to recompute
+        it."""
+        out = []
+        for p in self.files(group):
+            try:
+                out.append(read_point(p))
+            except Exception as e:    # noqa: BLE001 - pyarrow, JSON and OS errors alike
+                raise InputError(f"point file {p} cannot be read ({type(e).__name__}: "
+                                 f"{' '.join(str(e).split())[:160]}); delete it and run the same "
+                                 "command with --resume (resume=True) to compute that point "
+                                 "again") from None
+        return out
 
     def finished(self, group: str | None = None) -> dict:
         """{(group, index): record} of the finished points, for resume; a file that cannot be
