@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nld.errors import InputError, SolveError
-from nld.systems.derived import MapStep, NumbaMap, PoincareMap, StroboscopicMap, as_map
+from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map, never_reset
 
 __all__ = ["PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_period",
            "section_points"]
@@ -150,6 +150,16 @@ class _Shooting:
         self.s = np.asarray(m.scales, dtype=float)
         self.N = m.n
 
+    def frozen(self, steps) -> np.ndarray:
+        """Columns of the unknowns held fixed: memory entries never reset on the evaluated
+        orbit (permanent contact or none: a history value, a neutral direction of the map;
+        docs/orbits.md, "Memory state")."""
+        idx = never_reset(self.m, steps)
+        if idx.size == 0:
+            return idx
+        npts = self.p if self.multiple else 1
+        return np.array([k * self.N + i for k in range(npts) for i in idx], dtype=np.int64)
+
     def evaluate(self, X, Z, jacobian: bool):
         """Residual (scaled, flat), Jacobian (scaled) or None, the steps, the new labels."""
         m, p, N, s = self.m, self.p, self.N, self.s
@@ -167,6 +177,9 @@ class _Shooting:
                     J[i * N:(i + 1) * N, i * N:(i + 1) * N] = steps[i].M * s[None, :] / s[:, None]
                     j = (i + 1) % p
                     J[i * N:(i + 1) * N, j * N:(j + 1) * N] -= np.eye(N)
+                fz = self.frozen(steps)
+                if fz.size:
+                    J[:, fz] = 0.0
             return r, J, steps
         x, z = X[0], Z[0]
         M = np.eye(N) if jacobian else None
@@ -178,6 +191,10 @@ class _Shooting:
             x, z = st.x, st.z
         r = m.difference(x, X[0]) / s
         J = (M * s[None, :] / s[:, None] - np.eye(N)) if jacobian else None
+        if jacobian:
+            fz = self.frozen(steps)
+            if fz.size:
+                J[:, fz] = 0.0
         return r, J, steps
 
     def points_after(self, X, steps):

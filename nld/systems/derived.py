@@ -82,6 +82,25 @@ def contact_events(system) -> np.ndarray:
     return np.arange(int(getattr(system, "n_events", 0)), dtype=np.int64)
 
 
+def kern_of(system):
+    return getattr(system, "kernel", None)
+
+
+def never_reset(m, steps) -> np.ndarray:
+    """Positions in the augmented state of the memory entries that no contact onset reset during
+    ``steps`` (a permanent contact or no contact): neutral directions, a history, not a state."""
+    mem = getattr(m, "memory", np.zeros(0))
+    if len(mem) == 0 or not steps or steps[0].onsets.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    total = np.sum([st.onsets for st in steps], axis=0)
+    out = []
+    for j, e in enumerate(m.memory_events):
+        pos = list(m.contacts).index(e) if e in m.contacts else -1
+        if pos < 0 or total[pos] == 0:
+            out.append(m.n_y + j)
+    return np.array(out, dtype=np.int64)
+
+
 def label_entries(system) -> np.ndarray:
     """Entries of z that are discrete labels (modes, branches, contact flags): not memory and, for
     a scene, not the dependent coordinates' warm start. A periodic orbit must return to them."""
@@ -118,6 +137,13 @@ class _FlowMap:
         self.y0 = self.pack(system.y0, system.z0)
         self.contacts = contact_events(system)
         self.labels = label_entries(system)
+        # the contact event that resets each memory entry (a scene: z[ci] is reset at the onset
+        # of clearance joint ci; another flow: memory entry j by contact event j), -1: none
+        if kern_of(system) is not None:
+            self.memory_events = self.memory.copy()
+        else:
+            self.memory_events = np.array([j if j < self.contacts.size else -1
+                                           for j in range(self.memory.size)], dtype=np.int64)
         mem_names = [f"z{i}" for i in self.memory]
         kern = getattr(system, "kernel", None)
         if kern is not None:
