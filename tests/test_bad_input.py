@@ -144,6 +144,19 @@ CLI_CASES = [
     ("four-bar-crank-too-long", ["simulate", "four_bar", "--set", "bodies.crank.points.O=[-0.07, 0]",
                                  "--set", "bodies.crank.points.A=[0.07, 0]", "--revs", "0.1"], 2,
      ["cannot be assembled", "does not close"]),
+    # issue 27, the audit
+    ("poincare-revs-1e9", ["poincare", "slider_crank", "--revs", "1000000000"], 2,
+     ["revs = 1000000000", "GiB", "at most 7.78e+06"]),
+    ("bifurcation-observables-unknown", ["bifurcation", "slider_crank", "--param", "driver.speed",
+                                         "--values", "300", "--observables", "nope", "--out",
+                                         "{d}/sweep1"], 2, ["--observables", "'nope'", "no such column"]),
+    ("chaos-map-check-span-200", ["chaos-map", "slider_crank", "--x", "joints.B.clearance", "--x-values",
+                                  "1e-4", "--y", "driver.speed", "--y-values", "300", "--check-span",
+                                  "200", "--out", "{d}/map1"], 2, ["--check-span", "200", "[1, 100]"]),
+    ("simulate-out-under-a-file", ["simulate", "slider_crank", "--out", "{d}/nodriver.toml/x.csv"], 2,
+     ["--out", "nodriver.toml/x.csv", "a file is in the way"]),
+    ("study-out-is-a-file", ["study", "flores2004", "--quick", "--out", "{d}/nodriver.toml"], 2,
+     ["--out", "nodriver.toml", "in the way"]),
 ]
 
 
@@ -303,6 +316,7 @@ API_CASES = [
      SceneError, ["joints.B.friction.mu_s", "coulomb"]),
     ("assembly", lambda: sim("four_bar", revs=0.1, overrides=["ground.points.C=[1.0, 0]"]),
      InputError, ["cannot be assembled", "at joint B"]),
+    ("strobo-revs-1e9", lambda: _strobo(revs=10**9), InputError, ["revs = 1000000000", "GiB"]),
 ]
 
 

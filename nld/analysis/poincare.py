@@ -176,6 +176,12 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
     kern = kernel if kernel is not None else compile_scene(sc)
     obs = _check_observables(observables if observables is not None else default_observables(kern),
                              ["t"] + list(kern.columns))
+    from nld.run.simulate import MAX_OUTPUT_BYTES
+    fit = MAX_OUTPUT_BYTES // ((len(kern.columns) + 24) * 8)
+    if revs > fit:          # the run's table holds every column at each section time
+        raise InputError(f"revs = {revs}: {revs:.3g} section points would need "
+                         f"{revs * (len(kern.columns) + 24) * 8 / 2**30:.3g} GiB; at most {fit:.3g} "
+                         f"fit the {MAX_OUTPUT_BYTES / 2**30:g} GiB output limit")
     k = np.arange(transient_revs, transient_revs + revs)
     t_eval = k * T
     t_end = float(t_eval[-1]) if t_eval[-1] > 0 else T * 1e-9   # a one-point section at t = 0

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from nld.cli.args import count_arg, rtol_arg, scene_args, values_arg
+from nld.errors import InputError
 from nld.settings import BIFURCATION_SPANS, SECTIONS
 
 
@@ -58,6 +59,14 @@ def cmd_bifurcation(args) -> int:
               + (f": {rec['message']}" if rec["status"] != "ok" else ""))
 
     check_values(args.scene, args.overrides, [args.param], args.values, "--values")
+    if args.observables is not None:     # refused before the sweep, not as a failure of every point
+        from nld.analysis.poincare import _check_observables, _load
+        from nld.kernel.compile import compile_scene
+        kern = compile_scene(_load(args.scene, args.overrides))
+        try:
+            _check_observables(args.observables, ["t"] + list(kern.columns))
+        except InputError as e:
+            raise InputError(f"--observables: {e}") from None
     df = sweep(args.scene, args.param, args.values, transient_revs=args.transient_revs,
                revs=args.revs, observables=args.observables, rtol=args.rtol,
                continuation=args.continuation, up_down=args.up_down, workers=args.workers,

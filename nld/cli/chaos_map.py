@@ -45,7 +45,7 @@ def add_parser(sub):
     sp.add_argument("--rtol-check", type=rtol_arg, default=None, metavar="R",
                     help="recompute each exponent at this second tolerance; cells where the two "
                          "disagree are 'uncertain' (default: no check)")
-    sp.add_argument("--check-span", type=float, default=1.0, metavar="F",
+    sp.add_argument("--check-span", type=number_arg("--check-span"), default=1.0, metavar="F",
                     help="with --rtol-check: average the check over F times the exponent's span "
                          "(default 1; 2 checks a change of averaging time too)")
     sp.add_argument("--estimator", choices=("tangent", "benettin"), default="tangent",
@@ -105,6 +105,9 @@ def cmd_chaos_map(args) -> int:
         x, y = rec["value"]
         write(f"[{k}/{n}] {lx} = {x!s}, {ly} = {y!s}: {res} ({rec['wall']:.3g} s)")
 
+    if not (math.isfinite(args.check_span) and 1.0 <= args.check_span <= 100.0):
+        raise InputError(f"--check-span = {args.check_span:g}: must be a number in [1, 100] (the "
+                         "check's averaging span over the exponent's)")
     check_values(args.scene, args.overrides, kx, args.x_values, "--x-values")
     check_values(args.scene, args.overrides, ky, args.y_values, "--y-values")
 

@@ -49,7 +49,9 @@ def cmd_simulate(args) -> int:
         try:
             out.parent.mkdir(parents=True, exist_ok=True)
         except OSError as e:
-            raise InputError(f"--out {args.out!r}: cannot create its directory ({e.strerror or e})") from None
+            why = "a file is in the way" if isinstance(e, (FileExistsError, NotADirectoryError)) \
+                else (e.strerror or e)
+            raise InputError(f"--out {args.out!r}: cannot create its directory ({why})") from None
     scene = load_scene(args.scene, args.overrides)
     times = output_times(scene, revs=args.revs, t_end=args.t_end, samples_per_rev=args.samples_per_rev)
     t_end = float(times[-1])

@@ -114,7 +114,9 @@ def cmd_study(args) -> int:
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"--out {str(out_dir)!r}: cannot create it ({e.strerror or e})") from None
+        why = "a file of that name is in the way" if isinstance(e, (FileExistsError, NotADirectoryError)) \
+            else (e.strerror or e)
+        raise InputError(f"--out {str(out_dir)!r}: cannot create it ({why})") from None
     from nld.output.report import study_started
     start = time.perf_counter()
     study_started(start)
