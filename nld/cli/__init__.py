@@ -14,11 +14,14 @@
     nld --version
 
 Exit status: 0 success, 1 failed integration or solve (the message on stderr; what was computed
-is still written), 2 bad input (one line ``nld: error: <message>`` on stderr, no traceback),
-130 interrupted by Ctrl-C (SIGINT; one line ``nld: interrupted: <what was kept>``: a simulate
-writes its partial table to --out, a sweep, chaos map or study keeps its finished points and
-resumes), 141 when the reader of stdout went away (``nld scenes | head -1``: no message, as
-``yes | head -1``; 128 + SIGPIPE, the status of a program killed by SIGPIPE).
+is written beside --out as FILE.partial.SUFFIX, never over it) or standard output on a full disk
+(one line), 2 bad input (one line ``nld: error: <message>`` on stderr, no traceback; a mechanism
+that cannot be assembled included), 130 interrupted by Ctrl-C (SIGINT; one line ``nld:
+interrupted: <what was kept>``: a simulate writes its partial table beside --out, a sweep, chaos
+map or study keeps its finished points and resumes), 143 terminated by SIGTERM (the same, ``nld:
+terminated by SIGTERM: <what was kept>``; the pool's workers end with the command), 141 when the
+reader of stdout went away (``nld scenes | head -1``: no message, as ``yes | head -1``; 128 +
+SIGPIPE, the status of a program killed by SIGPIPE).
 ``main(argv)`` returns the status instead of exiting, for tests.
 
 Layout: the only package of nld that knows argparse. ``app`` assembles the parser from one module
