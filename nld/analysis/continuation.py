@@ -18,7 +18,8 @@ left out) are watched for the codimension-one bifurcations of a map (Kuznetsov 2
 pair through |mu| = 1), and the discontinuity-induced bifurcations of impacting systems
 (di Bernardo et al. 2008, ch. 8; Nordmark 1991): **grazing** (a contact's normal approach speed
 on the orbit goes to 0 and the number of contacts per period changes) and, generally, the
-**appearance or loss of a contact** per period. Period doubling, Neimark-Sacker and grazing are
+**appearance or loss of a contact** per period at a finite approach speed (``contact_change``: the
+branch jumps to another orbit; a compliant contact law makes such jumps possible). Period doubling, Neimark-Sacker and grazing are
 located by bisection in the parameter (a corrector solve per step) to ``locate_tol``; a fold by
 its bracketing branch points. :func:`period_doubled_orbit` starts the doubled branch at a located
 period doubling.
@@ -45,7 +46,7 @@ from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
 __all__ = ["Family", "Bifurcation", "Branch", "continue_orbit", "period_doubled_orbit",
            "KINDS"]
 
-KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing")
+KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing", "contact_change")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -343,7 +344,7 @@ def _tangent(fam, like_map, o: PeriodicOrbit, value, lam_scale, prev_t=None):
 # the continuation
 
 
-def _check_values(values, value0, param):
+def check_values(values, value0, param):
     v = np.array(values, dtype=float).ravel()
     if v.size < 2 or not np.all(np.isfinite(v)):
         raise InputError(f"values = {values!r}: give at least two finite values of {param}")
@@ -395,20 +396,20 @@ def continue_orbit(system, orbit: PeriodicOrbit, param, values=None, *, range=No
     if method == "natural":
         if values is None:
             raise InputError("method 'natural' needs values")
-        v = _check_values(values, v0, param)
+        v = check_values(values, v0, param)
         settings["values"] = v.tolist()
         vals, orbs, msg = _natural(fam, like, orbit, v0, v, tol, progress, on_point)
         dstep = float(np.min(np.abs(np.diff(v))))
     else:
         if range is None:
-            rng = _check_values(values, v0, param)
+            rng = check_values(values, v0, param)
             a, b = float(rng[0]), float(rng[-1])
         else:
             try:
                 a, b = (float(x) for x in range)
             except (TypeError, ValueError):
                 raise InputError(f"range = {range!r}: give (a, b)") from None
-            _check_values([a, b], v0, param)
+            check_values([a, b], v0, param)
         settings["range"] = [a, b]
         dstep = float(step) if step is not None else abs(b - a) / 50.0
         if not (dstep > 0 and math.isfinite(dstep)):
@@ -585,10 +586,18 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
             v, o1, o2, w = 0.5 * (va + vb), oa, ob, abs(vb - va)
         with_contact = o1 if o1.onsets_per_period > o2.onsets_per_period else o2
         speed = with_contact.min_approach_speed
-        detail = (f"grazing: contacts per period {o1.onsets_per_period} -> "
+        far = oa if oa.onsets_per_period > ob.onsets_per_period else ob
+        # grazing: the approach speed goes to zero as the contact is lost; a contact count that
+        # changes at a finite approach speed is a jump to another orbit (not a grazing)
+        graze = (math.isfinite(far.min_approach_speed) and math.isfinite(speed)
+                 and speed <= 0.2 * far.min_approach_speed)
+        kind = "grazing" if graze else "contact_change"
+        what = "grazing" if graze else "contact count change at a finite approach speed (a jump)"
+        detail = (f"{what}: contacts per period {o1.onsets_per_period} -> "
                   f"{o2.onsets_per_period} at {fam.param} = {v:.6g} ± {w:.2g} (approach speed "
-                  f"{speed:.3g} on the contact side)")
-        out.append(Bifurcation("grazing", float(v), float(w), None, with_contact, detail, (va, vb)))
+                  f"{speed:.3g} on the contact side, {far.min_approach_speed:.3g} at the branch "
+                  f"point)")
+        out.append(Bifurcation(kind, float(v), float(w), None, with_contact, detail, (va, vb)))
     return out
 
 
@@ -624,3 +633,41 @@ def period_doubled_orbit(system, param, bif: Bifurcation, *,
                     return o2
     raise InputError(f"no period-{2 * o.period} orbit found near the period doubling at "
                      f"{bif.value:g} (only the period-{o.period} orbit)")
+
+
+def orbit_observable(system, orbit: PeriodicOrbit, name: str) -> np.ndarray:
+    """The value of ``name`` at each of the orbit's section points: a table column of a scene
+    (``nld simulate`` columns, SI units, from the kernel's ``observe`` at the section time), else
+    a state name of the system."""
+    kern = getattr(system, "kernel", None)
+    m = orbit.map
+    out = np.empty(orbit.period)
+    if kern is not None and name in kern.columns:
+        j = list(kern.columns).index(name)
+        row = np.empty(len(kern.columns))
+        for i in np.arange(orbit.period):
+            y, z = m.unpack(orbit.points[i], orbit.z[i])
+            kern.module.observe(float(system.t0), np.ascontiguousarray(y), system.p, z, row)
+            out[i] = row[j]
+        return out
+    names = list(orbit.state_names)
+    if name not in names:
+        raise InputError(f"observable {name!r}: not a state ({', '.join(names)})"
+                         + (f" nor a column ({', '.join(kern.columns)})" if kern is not None else ""))
+    return orbit.points[:, names.index(name)].copy()
+
+
+def branch_curves(branches, system, observable: str) -> list[dict]:
+    """The data of ``nld.output.plots.branch_diagram``: per branch its period, values, the
+    observable at the section points (n_values, period), stability, and the located
+    bifurcations as (kind, value, observable there)."""
+    curves = []
+    for br in branches:
+        fam = Family(system, br.param)
+        y = np.array([orbit_observable(fam.at(v), o, observable)
+                      for v, o in zip(br.values, br.orbits)])
+        bifs = [(b.kind, b.value, orbit_observable(fam.at(b.value), b.orbit, observable))
+                for b in br.bifurcations if b.orbit is not None]
+        curves.append({"period": br.period, "values": list(br.values), "y": y,
+                       "stable": [o.stable for o in br.orbits], "bifurcations": bifs})
+    return curves

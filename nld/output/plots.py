@@ -215,3 +215,57 @@ def spectrum_plot(spec: pd.DataFrame, *, ax=None, title: str | None = None, log:
     desc = f"{a.get('method', '')}, {a.get('window', '')} window, Δf = {res:.3g} Hz"
     ax.set_title(title if title is not None else f"Spectrum{' of ' + obs if obs else ''} ({desc})")
     return fig
+
+
+BIFURCATION_MARKERS = {"period_doubling": ("o", "PD"), "fold": ("s", "fold"),
+                       "neimark_sacker": ("D", "NS"), "grazing": ("^", "grazing"),
+                       "contact_change": ("v", "contact change")}
+
+
+def branch_diagram(curves, observable: str, param: str, *, sweep: pd.DataFrame | None = None,
+                   ax=None, title: str | None = None, scale: float = 1.0, unit: str | None = None,
+                   param_scale: float = 1.0, param_unit: str | None = None):
+    """Continued periodic-orbit branches in the plane (parameter, observable at the section
+    points): stable stretches solid, unstable dashed, undecided dotted; located bifurcations marked
+    and named. curves: ``nld.analysis.continuation.branch_curves`` (per branch: period, values,
+    y (n_values, period), stable, bifurcations as (kind, value, y)). sweep: a brute-force
+    bifurcation table of the same parameter (``nld.analysis.bifurcation.sweep``) drawn underneath
+    in grey."""
+    fig, ax = figure_axes(ax)
+    if sweep is not None and len(sweep) and observable in sweep.columns:
+        ok = sweep[sweep["status"] == "ok"] if "status" in sweep.columns else sweep
+        ax.scatter(ok["value"].to_numpy(dtype=float) * param_scale,
+                   ok[observable].to_numpy(dtype=float) * scale, s=1.5, linewidths=0,
+                   color="0.6", label="brute force (section points)")
+    styles = {True: ("-", "stable"), False: ("--", "unstable"), None: (":", "undecided")}
+    shown = set()
+    for c in curves:
+        vals, ys, stab = np.asarray(c["values"], dtype=float), np.asarray(c["y"]), c["stable"]
+        colour = f"C{(c['period'] - 1) % 10}"
+        for k in range(ys.shape[1] if ys.ndim == 2 else 0):
+            i = 0
+            while i < len(vals) - 1:
+                j = i
+                while j + 1 < len(vals) and stab[j + 1] == stab[i]:
+                    j += 1
+                ls, lab = styles[stab[i]]
+                seg = slice(i, min(j + 2, len(vals)))
+                key = (c["period"], lab)
+                ax.plot(vals[seg] * param_scale, ys[seg, k] * scale, ls, color=colour, lw=1.4,
+                        label=f"period {c['period']}, {lab}" if key not in shown else None)
+                shown.add(key)
+                i = j + 1
+        for kind, value, yb in c["bifurcations"]:
+            mk, short = BIFURCATION_MARKERS.get(kind, ("x", kind))
+            yb = np.atleast_1d(yb)
+            ax.plot(np.full(yb.size, value * param_scale), yb * scale, mk, color="k", ms=6,
+                    mfc="none", label=short if short not in shown else None)
+            shown.add(short)
+            ax.annotate(f"{short} {value * param_scale:.4g}", (value * param_scale, yb[0] * scale),
+                        textcoords="offset points", xytext=(4, 6), fontsize=7)
+    ax.set_xlabel(label_of(param, param_unit))
+    ax.set_ylabel(label_of(observable, unit))
+    ax.set_title(title if title is not None else f"Periodic-orbit branches: {observable}")
+    if shown:
+        ax.legend(fontsize=7)
+    return fig

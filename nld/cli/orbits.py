@@ -1,0 +1,233 @@
+"""``nld orbits``: periodic orbits of a scene's stroboscopic map (one crank revolution), with their
+Floquet multipliers; ``nld continue``: an orbit followed in one scene parameter, bifurcations named
+(nld.analysis.orbits, nld.analysis.continuation; docs/orbits.md)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of
+from nld.errors import InputError, Interrupted
+from nld.settings import LYAPUNOV
+
+DEFAULT_TRANSIENT = 10
+
+
+def add_parser(sub):
+    """``nld orbits`` and ``nld continue``."""
+    sp = sub.add_parser(
+        "orbits", help="periodic orbits of a scene and their Floquet multipliers",
+        description="Periodic orbits of the scene's stroboscopic map (one crank revolution): "
+                    "Newton shooting with the monodromy matrix (tangent integration with "
+                    "saltation at every contact event) from the state after a transient; with "
+                    "--max-period, every distinct orbit of periods 1..P found from close returns "
+                    "of the section. Prints each orbit's section point, residual, Floquet "
+                    "multipliers (with their uncertainty from a second evaluation at 10 rtol), "
+                    "stability, contact onsets per period and the smallest approach speed at an "
+                    "onset (distance to grazing). Exit 1 when no orbit converged.")
+    scene_args(sp)
+    sp.add_argument("--period", type=count_arg("--period", 1), default=1, metavar="P",
+                    help="the orbit's period in revolutions (default 1)")
+    sp.add_argument("--max-period", type=count_arg("--max-period", 1), default=None, metavar="P",
+                    help="search every orbit of periods 1..P instead (unstable ones included)")
+    sp.add_argument("--transient", type=count_arg("--transient", 0), default=DEFAULT_TRANSIENT,
+                    metavar="REVS", help=f"revolutions from the assembly to the first guess "
+                                         f"(default {DEFAULT_TRANSIENT})")
+    sp.add_argument("--rtol", type=rtol_arg, default=LYAPUNOV.rtol, metavar="R",
+                    help=f"relative tolerance of the integrations (default {LYAPUNOV.rtol:g})")
+    sp.add_argument("--json", action="store_true", help="print the result as JSON")
+    sp.set_defaults(func=cmd_orbits)
+
+    sc = sub.add_parser(
+        "continue", help="follow a periodic orbit in one parameter, bifurcations named",
+        description="Continuation of a periodic orbit in one scene parameter: the orbit at the "
+                    "scene's value of KEY (after --set), followed over --values (natural "
+                    "continuation) or, with --arclength, by pseudo-arclength from the first to "
+                    "the last value. Multipliers along the branch; period doublings, folds, "
+                    "Neimark-Sacker and grazing (a contact appearing or lost) located. Writes "
+                    "DIR/branch.parquet and DIR/bifurcations.parquet (provenance in their JSON "
+                    "sidecars) with --out; draws the branch with --plot.")
+    scene_args(sc)
+    sc.add_argument("--param", required=True, metavar="KEY",
+                    help="the scene key to vary, e.g. joints.B.clearance or driver.speed")
+    sc.add_argument("--values", required=True, type=values_of("--values"), metavar="A:B:N",
+                    help="values of KEY: START:STOP:NUM (ends included) or V1,V2,... ; they must "
+                         "contain the scene's value")
+    sc.add_argument("--period", type=count_arg("--period", 1), default=1, metavar="P",
+                    help="the orbit's period in revolutions (default 1)")
+    sc.add_argument("--transient", type=count_arg("--transient", 0), default=DEFAULT_TRANSIENT,
+                    metavar="REVS", help=f"revolutions to the start orbit's guess "
+                                         f"(default {DEFAULT_TRANSIENT})")
+    sc.add_argument("--arclength", action="store_true",
+                    help="pseudo-arclength continuation (passes folds; adaptive step)")
+    sc.add_argument("--rtol", type=rtol_arg, default=LYAPUNOV.rtol, metavar="R",
+                    help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
+    sc.add_argument("--out", metavar="DIR", help="write branch.parquet and bifurcations.parquet")
+    sc.add_argument("--plot", metavar="FILE", help="draw the branch (.png, .pdf or .svg)")
+    sc.add_argument("--observable", default=None, metavar="COL",
+                    help="table column drawn by --plot (default: <first clearance joint>.ex)")
+    sc.set_defaults(func=cmd_continue)
+    return sp
+
+
+def _orbit_line(o, scale_names) -> str:
+    mu = ", ".join(f"{m.real:.6g}{m.imag:+.3g}j" if abs(m.imag) > 0 else f"{m.real:.6g}"
+                   for m in o.multipliers)
+    st = {True: "stable", False: "unstable", None: "undecided"}[o.stable]
+    appr = ("no onset" if not math.isfinite(o.min_approach_speed)
+            else f"min approach {o.min_approach_speed:.4g} m/s")
+    extra = " (memory never reset: one of a continuum, history-dependent)" if o.continuum else ""
+    return (f"period {o.period}: {st}, max |mu| {o.max_abs_multiplier:.6g} ± "
+            f"{float(np.max(o.multiplier_error)) if o.multiplier_error.size else 0:.2g}; "
+            f"{o.onsets_per_period} onsets per period, {appr}; residual {o.residual:.2g} "
+            f"(tolerance {o.tolerance:.2g}){extra}\n    multipliers: {mu}\n    point: "
+            + ", ".join(f"{n} = {x:.9g}" for n, x in zip(scale_names, o.points[0])))
+
+
+def cmd_orbits(args) -> int:
+    from nld.analysis.orbits import find_orbits, periodic_orbit
+    from nld.run.simulate import provenance
+    from nld.systems.core import SceneSystem
+    system = SceneSystem(args.scene, args.overrides)
+    if system.period is None:
+        raise InputError(f"scene {system.name!r} has no crank speed: orbits are found on the "
+                         "stroboscopic map of a driven crank")
+    prog = _newton_progress(args)
+    if args.max_period is not None:
+        orbits = find_orbits(system, args.max_period, transient=args.transient, rtol=args.rtol)
+    else:
+        orbits = [periodic_orbit(system, args.period, transient=args.transient, rtol=args.rtol,
+                                 progress=prog)]
+    settings = {"period": args.period, "max_period": args.max_period,
+                "transient_revs": args.transient, "rtol": args.rtol,
+                "tolerance": orbits[0].tolerance if orbits else 1e3 * args.rtol,
+                "shooting": "multiple for period >= 2", "overrides": list(args.overrides)}
+    prov = provenance(system.scene, system.kernel, rtol=args.rtol,
+                      command=getattr(args, "command_line", None))
+    ok = [o for o in orbits if o.converged]
+    if args.json:
+        out = {"orbits": [o.to_dict() for o in orbits], "settings": settings,
+               "provenance": {k: v for k, v in prov.items() if k != "scene_parameters"}}
+        print(json.dumps(out, indent=2, default=_plain))
+    else:
+        print(f"{system.name}: {len(ok)} converged orbit{'s' if len(ok) != 1 else ''} "
+              f"(rtol {args.rtol:g}; section at t = 0 mod {system.period:.6g} s)")
+        for o in orbits:
+            print(("  " if o.converged else "  NOT CONVERGED: ") + _orbit_line(o, o.state_names))
+            if not o.converged:
+                print(f"    {o.message}")
+    if not ok:
+        from nld.cli.args import print_error
+        print_error("no periodic orbit converged" + (f": {orbits[0].message}" if orbits else ""))
+        return 1
+    return 0
+
+
+def _plain(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, complex):
+        return [o.real, o.imag]
+    return str(o)
+
+
+def _newton_progress(args):
+    if getattr(args, "progress", None) is False:
+        return None
+    import sys
+
+    def prog(it, res):
+        if sys.stderr.isatty() or getattr(args, "progress", None):
+            print(f"  Newton step {it}: residual {res:.3g}", file=sys.stderr, flush=True)
+    return prog
+
+
+def cmd_continue(args) -> int:
+    from nld.analysis.continuation import continue_orbit
+    from nld.analysis.orbits import periodic_orbit
+    from nld.output.io import check_figure_path, save_table
+    from nld.run.simulate import provenance
+    from nld.systems.core import SceneSystem
+    from pathlib import Path
+    values = np.array(args.values, dtype=float)
+    plot = check_figure_path(args.plot) if args.plot else None
+    system = SceneSystem(args.scene, args.overrides)
+    if system.period is None:
+        raise InputError(f"scene {system.name!r} has no crank speed: orbits are found on the "
+                         "stroboscopic map of a driven crank")
+    from nld.analysis.continuation import Family
+    fam = Family(system, args.param)             # checks the key before any integration
+    from nld.analysis.continuation import check_values
+    check_values(values, fam.value0, args.param)
+    if plot is not None and args.observable is not None:
+        _observable_check(system, args.observable)
+    o = periodic_orbit(system, args.period, transient=args.transient, rtol=args.rtol)
+    if not o.converged:
+        raise InputError(f"no period-{args.period} orbit at {args.param} = {fam.value0:g} to start "
+                         f"from ({o.message}); try another --transient or --period")
+    done = []
+    prov = provenance(system.scene, system.kernel, rtol=args.rtol, param=args.param,
+                      values=values.tolist(), period=args.period, transient_revs=args.transient,
+                      method="arclength" if args.arclength else "natural",
+                      command=getattr(args, "command_line", None))
+    prov.pop("scene_parameters", None)
+    out = Path(args.out) if args.out else None
+    from nld.progress import progress_bar
+    with progress_bar(total=len(values), desc="continuation", unit="point",
+                      enabled=args.progress) as pb:
+        def on_point(v, orb):
+            done.append((v, orb))
+            pb.update(1)
+        try:
+            if args.arclength:
+                br = continue_orbit(system, o, args.param, range=(values[0], values[-1]),
+                                    step=float(np.min(np.abs(np.diff(values)))),
+                                    max_points=4 * len(values), on_point=on_point)
+            else:
+                br = continue_orbit(system, o, args.param, values, on_point=on_point)
+        except KeyboardInterrupt:
+            kept = f"{len(done)} branch points computed"
+            if out is not None and done:
+                from nld.analysis.continuation import Branch
+                part = Branch(args.param, o.period, [v for v, _ in done], [b for _, b in done], [],
+                              "interrupted")
+                path = save_table(part.table(), out / "branch.parquet", prov, partial=True)
+                kept += f"; written to {path}, marked partial"
+            raise Interrupted("interrupted", kept=kept) from None
+    tab = br.table()
+    bifs = br.bifurcation_table()
+    print(f"{system.name}: period-{o.period} branch in {args.param}, {len(br.values)} points "
+          f"({br.values[0]:g} ... {br.values[-1]:g}); {br.message}")
+    for b in br.bifurcations:
+        print(f"  {b.detail}")
+    if not br.bifurcations:
+        print("  no bifurcation on the branch")
+    cols = ["value", "stable", "max_abs_multiplier", "onsets_per_period", "min_approach_speed"]
+    print(tab[cols].to_string(index=False, float_format=lambda v: f"{v:.6g}"))
+    if out is not None:
+        p1 = save_table(tab, out / "branch.parquet", prov)
+        p2 = save_table(bifs, out / "bifurcations.parquet", prov)
+        print(f"wrote {p1} and {p2}")
+    if plot is not None:
+        from nld.output.io import save_figure
+        from nld.analysis.continuation import branch_curves
+        from nld.output.plots import branch_diagram
+        obs = args.observable or _default_observable(system)
+        fig = branch_diagram(branch_curves([br], system, obs), obs, args.param)
+        print(f"wrote {save_figure(fig, plot)}")
+    return 0
+
+
+def _default_observable(system) -> str:
+    from nld.analysis.poincare import default_observables
+    return default_observables(system.kernel)[0]
+
+
+def _observable_check(system, name):
+    cols = list(system.kernel.columns)
+    if name not in cols:
+        raise InputError(f"--observable {name!r}: no such column; available: {', '.join(cols)}")
