@@ -186,3 +186,18 @@ def test_bad_guess_and_settings_are_refused():
         periodic_orbit(ContinuousSystem(hopf_rhs, [0.5, 0.0], [1.0, 2.0], "hopf"), 1)
     with pytest.raises(InputError, match="z"):
         periodic_orbit(impact_oscillator(), 1, [1.0, 0.5], z=[0.0, 1.0])
+
+
+def test_map_analyses_take_a_derived_map():
+    # the spectrum of the stroboscopic map started on a stable orbit is ln|mu_i| per iteration
+    from nld.analysis.lyapunov import lyapunov_spectrum
+    from nld.systems import iterate
+    S = impact_oscillator(*P0)
+    o = periodic_orbit(S, 1, [1.0, 0.5], rtol=1e-11)
+    S.y0, S.z0 = o.points[0], o.z[0]
+    m = StroboscopicMap(S, 1, rtol=1e-11)
+    assert np.max(np.abs(iterate(m, m.y0, 5) - o.points[0])) < 1e-8
+    sp = lyapunov_spectrum(m, transient=0, total=200)
+    expect = np.sort(np.log(np.abs(o.multipliers)))[::-1]
+    assert np.max(np.abs(sp.exponents - expect)) < 0.02
+    assert sp.units == "1/iteration"

@@ -593,6 +593,41 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
 
 
 # ---------------------------------------------------------------- spectrum
+DERIVED_TRANSIENT, DERIVED_TOTAL = 20, 200
+
+
+def _derived_map_spectrum(m, k, Q0, transient, total, n_blocks, seed) -> "SpectrumResult":
+    """The spectrum of a derived map (``nld.systems.derived``: a stroboscopic or Poincaré map of
+    a flow) from the product of its Jacobians (the monodromies, saltation included), QR at every
+    iteration in the scaled norm. transient / total in iterations (defaults 20 / 200: each
+    iteration integrates the flow with its tangent vectors over one period)."""
+    n_tr = DERIVED_TRANSIENT if transient is None else int(transient)
+    n_int = DERIVED_TOTAL if total is None else int(total)
+    if n_tr < 0 or n_int < 2:
+        raise InputError(f"transient = {transient!r}, total = {total!r}: need transient >= 0 and "
+                         f"total >= 2 iterations")
+    s = np.asarray(m.scales, dtype=float)
+    x, z = m.y0.copy(), m.z0.copy()
+    for _ in range(n_tr):
+        st = m.step(x, z)
+        x, z = st.x, st.z
+    Q = Q0.copy()
+    rates = np.empty((n_int, k))
+    for i in range(n_int):
+        st = m.step(x, z, jacobian=True)
+        A = (st.M * s[None, :] / s[:, None]) @ Q
+        Q, R = np.linalg.qr(A)
+        d = np.diag(R)
+        rates[i] = np.log(np.abs(d))
+        Q = Q * np.sign(d)[None, :]
+        x, z = st.x, st.z
+    settings = dict(transient=n_tr, total=n_int, renorm_interval=1, seed=seed, n_blocks=n_blocks,
+                    jacobian="monodromy (tangent integration with saltation)",
+                    rtol=getattr(m, "rtol", None))
+    return _spectrum_result(m, rates, np.ones(n_int), n_blocks, "tangent QR of the derived map",
+                            settings)
+
+
 def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=None,
                       renorm_interval=None, d0=None, rtol=None, seed: int = 0,
                       n_blocks: int | None = None) -> SpectrumResult:
@@ -619,6 +654,8 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
     Q0 = np.linalg.qr(rng.standard_normal((n, k)))[0]
     Q0 = np.ascontiguousarray(Q0)
+    if getattr(system, "is_derived", False):
+        return _derived_map_spectrum(system, k, Q0, transient, total, n_blocks, seed)
     if system.is_map:
         n_tr, n_int, every = _map_settings(system, transient, total, renorm_interval)
         use_fd = system.jacobian is None

@@ -380,7 +380,14 @@ def _iterate(f, x, p, n):
 
 
 def iterate(system: DiscreteMap, x, n: int) -> np.ndarray:
-    """x after n iterations of the map."""
+    """x after n iterations of the map (a DiscreteMap, or a derived stroboscopic / Poincaré map
+    of ``nld.systems.derived``, whose discrete state starts at its z0 and is carried along)."""
+    if getattr(system, "is_derived", False):
+        x, z = np.asarray(x, dtype=float), system.z0
+        for _ in range(int(n)):
+            st = system.step(x, z)
+            x, z = st.x, st.z
+        return x
     return _iterate(system.f, np.ascontiguousarray(x, dtype=float), system.p, int(n))
 
 
