@@ -314,6 +314,9 @@ API_CASES = [
      ["joints.A.friction.mu", "plausible range"]),
     ("mu-s-not-coulomb", lambda: nld.load_scene("slider_crank", {"joints.B.friction.mu_s": 0.1}),
      SceneError, ["joints.B.friction.mu_s", "coulomb"]),
+    ("mu-s-not-coulomb-ambrosio", lambda: nld.load_scene("excavator", {
+        "joints.A.friction.law": "ambrosio", "joints.A.friction.mu_s": 0.3}),
+     SceneError, ["joints.A.friction.mu_s", "coulomb", "'ambrosio'"]),
     ("assembly", lambda: sim("four_bar", revs=0.1, overrides=["ground.points.C=[1.0, 0]"]),
      InputError, ["cannot be assembled", "at joint B"]),
     ("strobo-revs-1e9", lambda: _strobo(revs=10**9), InputError, ["revs = 1000000000", "GiB"]),
@@ -421,3 +424,11 @@ def test_corrupt_point_file_through_the_loaders(tmp_path):
         msg = str(ei.value)
         assert msg.startswith(f"point file {bad} cannot be read") and "--resume" in msg
         assert "\n" not in msg
+
+
+def test_mu_s_equal_to_mu_is_accepted_on_any_law():
+    """mu_s = mu is what a law without stiction does: accepted whatever the law (only a mu_s that
+    would be ignored is refused)."""
+    sc = nld.load_scene("excavator", {"joints.A.friction.law": "ambrosio", "joints.A.friction.mu": 0.2,
+                                      "joints.A.friction.mu_s": 0.2})
+    assert sc.joints["A"].friction.law == "ambrosio" and sc.joints["A"].friction.mu_s == 0.2

@@ -30,7 +30,7 @@ from nld.integrators.core import as_solution
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
-           "default_observables"]
+           "default_observables", "check_scene_observables"]
 
 TWO_PI = 2.0 * math.pi
 DEFAULT_PERIOD_TOL = 1e-6
@@ -107,6 +107,14 @@ def default_observables(kernel) -> list[str]:
         if b != crank:
             return [f"{b}.theta", f"{b}.omega"]
     return ["driver.angle", "driver.speed"]
+
+
+def check_scene_observables(scene, observables, overrides=None) -> list[str]:
+    """``observables`` (a list or comma-separated text) checked against the table columns of
+    ``scene`` (with ``overrides``); InputError naming the first unknown one and the columns."""
+    from nld.kernel.compile import compile_scene
+    kern = compile_scene(_load(scene, overrides))
+    return _check_observables(observables, ["t"] + list(kern.columns))
 
 
 def _check_observables(observables, available, what="column") -> list[str]:

@@ -60,11 +60,9 @@ def cmd_bifurcation(args) -> int:
 
     check_values(args.scene, args.overrides, [args.param], args.values, "--values")
     if args.observables is not None:     # refused before the sweep, not as a failure of every point
-        from nld.analysis.poincare import _check_observables, _load
-        from nld.kernel.compile import compile_scene
-        kern = compile_scene(_load(args.scene, args.overrides))
+        from nld.analysis.poincare import check_scene_observables
         try:
-            _check_observables(args.observables, ["t"] + list(kern.columns))
+            check_scene_observables(args.scene, args.observables, args.overrides)
         except InputError as e:
             raise InputError(f"--observables: {e}") from None
     df = sweep(args.scene, args.param, args.values, transient_revs=args.transient_revs,

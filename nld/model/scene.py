@@ -692,7 +692,7 @@ def _friction(f: dict, path: str) -> Friction:
     mu_s = None
     if f.get("mu_s") is not None:     # static coefficient of the coulomb law's stick mode (>= mu)
         mu_s = _num(f, "mu_s", path, "-", ge=0, plausible="friction")
-        if law != "coulomb":
+        if law != "coulomb" and mu_s != mu:      # it would be ignored (mu_s = mu: what the law does)
             raise SceneError(f"{path}.mu_s", f["mu_s"], f"applies only to law = 'coulomb' (the static "
                              f"coefficient of its stick mode), and {path}.law = {law!r}: remove mu_s "
                              f"or set {path}.law = 'coulomb'")
