@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
+from nld.study import route_pages, route_record, route_tables
 
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
@@ -57,12 +58,16 @@ FULL = dict(rtol=1e-8, transient_revs=100, revs=64, lyap_revs=64, lyap_rtol=1e-1
             frictions=[0.0, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3],
             speeds_low_mu=list(np.arange(500.0, 6001.0, 250.0) / RPM),
             case_transient=100, case_revs=300, case_lyap_revs=200, case_lyap_rtol=1e-10,
-            check_rtol_factor=0.1, check_span=2, workers=2)
+            check_rtol_factor=0.1, check_span=2, workers=2,
+            route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.02, max_period=2,
+                       transient=50, values=[0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.075, 0.1]))
 QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-10,
              speeds=[1500.0 / RPM, 3000.0 / RPM, SPEED0], clearances=[0.05e-3, 0.5e-3],
              frictions=[0.0, 0.1], speeds_low_mu=[1500.0 / RPM, SPEED0],
              case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10,
-             check_rtol_factor=0.1, check_span=2, workers=1)
+             check_rtol_factor=0.1, check_span=2, workers=1,
+             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
+                        transient=10, values=[0.09, 0.1]))
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
@@ -794,11 +799,27 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     t_tc = time.perf_counter()
     tolcheck = tolerance_check(points, st)
     walls["tolerance check"] = time.perf_counter() - t_tc
+    route = run_route(study, st)
+    walls["route to chaos"] = route["wall_s"]
     total_wall = study.elapsed()
     _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
+    study.prov["route_to_chaos"] = route_record(route)
     stacked = _save(study, sweeps, points, summary, tolcheck, states)
-    _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall)
+    for name, tab in route_tables(route).items():
+        study.save(f"_route_{name}.csv", tab)
+    _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route)
     return study.pdf
+
+
+def run_route(study, st: dict) -> dict:
+    """The period-1 orbit of the friction sweep (5000 rpm) continued from mu = 0.1 towards the
+    chaotic range, its bifurcations, and the orbits inside it (nld.study.route_to_chaos)."""
+    from nld.study import route_to_chaos
+    r = st["route"]
+    study.stage("route to chaos (periodic orbits)")
+    return route_to_chaos(SCENE, [], r["param"], r["values"], start=r["start"],
+                          chaotic=r["chaotic"], transient=r["transient"],
+                          max_period=r["max_period"])
 
 
 def showcase_states(points: dict, st: dict, walls: dict) -> dict:
@@ -868,7 +889,8 @@ def _save(study, sweeps, points, summary, tolcheck, states) -> dict:
     return stacked
 
 
-def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall):
+def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall,
+            route=None):
     from nld.study import timing
     st, mode_label, prov = study.settings, study.label, study.prov
     report_settings = {
@@ -918,6 +940,9 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
         elim = ec_limit(*stacked.values(), floor=EC_LIM)
         for name in SWEEPS:
             _fig_sweep(rep, name, sweeps[name], points[name], st, ylim, elim)
+            if name == "friction" and route is not None:
+                route_pages(rep, route, sweeps[name], "B.ex", label="friction coefficient μ",
+                            scale=1e3, unit="mm")
         tc = tolcheck.copy()
         tc["value"] = [_fmt_value(n, v) for n, v in zip(tc["sweep"], tc["value"])]
         ren = {"sweep_lambda_per_rev": "λ1 (sweep)", "sweep_unc_per_rev": "± (sweep)"}

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
+from nld.study import route_pages, route_record, route_tables, route_to_chaos
 
 SCENE = "four_bar"
 STEM = "rhee1996"
@@ -47,11 +48,15 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
             clearances=[0.02e-3, 0.03e-3, 0.05e-3, 0.075e-3, 0.1e-3, 0.15e-3, 0.2e-3, 0.25e-3,
                         0.3e-3, 0.4e-3, 0.5e-3],
             frictions=[0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.08, 0.1, 0.15, 0.2, 0.3],
-            rtol_check=1e-10, check_span=2, workers=2)
+            rtol_check=1e-10, check_span=2, workers=2,
+            route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.0, max_period=2,
+                       transient=50, values=[0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.1]))
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
              samples_per_rev=360, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
-             rtol_check=1e-8, check_span=2, workers=1)
+             rtol_check=1e-8, check_span=2, workers=1,
+             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
+                        transient=10, values=[0.09, 0.1]))
 MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
 
 # name -> (group, overrides, clearance [m], mu)
@@ -599,6 +604,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     sweeps.update({f"{k}_check": v for k, v in chk.items() if v is not None})
     add_sweep_verdicts(res, pts_c, pts_f)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
+    study.stage("route to chaos (periodic orbits)")
+    r = st["route"]
+    route = route_to_chaos(SCENE, [], r["param"], r["values"], start=r["start"],
+                           chaotic=r["chaotic"], transient=r["transient"],
+                           max_period=r["max_period"])
     wall = study.elapsed()
     study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
                      cases={n: {"overrides": CASES[n][1]} for n in CASES},
@@ -611,8 +621,11 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                                    "friction": pts_f.to_dict(orient="records")},
                      sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
                                       for k, v in sweeps.items()})
+    study.prov["route_to_chaos"] = route_record(route)
     _save(study, base, res, sweeps, summary)
-    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall)
+    for name, tab in route_tables(route).items():
+        study.save(f"_route_{name}.csv", tab)
+    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route)
     return study.pdf
 
 
@@ -627,7 +640,7 @@ def _save(study, base, res, sweeps, summary):
     study.save("_summary.csv", summary)
 
 
-def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
+def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route=None):
     from nld.study import sde, timing
     st, mode_label, prov = study.settings, study.label, study.prov
     shown = summary.drop(columns=["group", "status"] + (["wall_s"] if sde() else []))
@@ -699,6 +712,9 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall):
                    f"Bifurcation diagram and λ1 against the friction coefficient "
                    f"(c = {base.joints['B'].clearance * 1e3:g} mm)", 1.0, False, base.joints["B"].clearance,
                    period, ylim, elim)
+        if route is not None:
+            route_pages(rep, route, sweeps["friction"], "B.ex", label="friction coefficient μ",
+                        scale=1e3, unit="mm")
         _fig_spectra(rep, res)
         _fig_convergence(rep, res, period)
         rep.text_page("Source vs ours: trends and why they differ", _discussion(summary, pts_c, pts_f))

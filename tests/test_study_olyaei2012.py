@@ -35,7 +35,8 @@ def test_quick_writes_pdf_and_data(quick_run):
     # title page(s) + 4 text pages, summary table, 4 sweep figures, tolerance-check table, (the two
     # state figures when a regular or a chaotic state was found), run statistics
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 11 + (2 if states else 0)
+    # + the route to chaos: branch figure, branch table, text
+    assert count_pages(pdf) == title_pages + 14 + (2 if states else 0)
     for f in ("olyaei2012.parquet", "olyaei2012_points.csv", "olyaei2012_summary.csv",
               "olyaei2012_tolcheck.csv"):
         assert (out / f).is_file(), f

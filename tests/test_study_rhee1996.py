@@ -30,9 +30,9 @@ def test_quick_writes_pdf_and_data(quick_run):
     data = pdf.read_bytes()
     assert data.startswith(b"%PDF") and b"quick" in data
     # title page(s) + intro, findings, case table, sweep table, sections, 2 sweeps, spectra,
-    # convergence, discussion
+    # convergence, discussion; the route to chaos: branch figure, branch table, text
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 10
+    assert count_pages(pdf) == title_pages + 13
     for suffix in ("", "_sections", "_sweeps", "_spectra"):
         assert (out / f"rhee1996{suffix}.parquet").is_file()
     assert (out / "rhee1996_summary.csv").is_file()
@@ -146,6 +146,8 @@ def test_figures_compare_and_state_their_estimator(quick_run_rec):
         assert "estimator tangent" in cap and f"rtol {q['rtol']:g}" in cap, words
         assert f"averaged over {revs:.3g} rev" in cap and "uncertainty:" in cap, words
     for t in rec.tables:
+        if t["title"].startswith(("Period-1 branch", "Periodic orbits at")):
+            continue            # the route-to-chaos tables hold multipliers, no exponent
         assert "estimator tangent" in t["notes"] and f"rtol {q['rtol']:g}" in t["notes"], t["title"]
     # sections: e/c, the six panels on the same axes; the minimum count is stated
     sec = rec.figure("Poincaré sections")
@@ -170,3 +172,18 @@ def test_figures_compare_and_state_their_estimator(quick_run_rec):
     # the title page's wall time is the whole run's, not the report's
     if source_date_epoch() is None:
         assert rec.wall_time() >= prov["compute_wall_s"]
+
+
+def test_route_to_chaos_branch_saved_with_its_sentence(quick_run):
+    import json
+
+    import pandas as pd
+    study, out, pdf = quick_run
+    br = pd.read_csv(out / "rhee1996_route_branch.csv")
+    assert sorted(br["value"]) == [0.09, 0.1]
+    assert br["converged"].all() and (br["residual"] < 1e-6).all()
+    # the four-bar runs in permanent contact at mu 0.09-0.1: no onset, the memory's multiplier 1
+    assert (br["onsets_per_period"] == 0).all() and br["continuum"].all()
+    assert (br["min_Fn"] > 0).all() and (br["max_Fn"] > br["min_Fn"]).all()
+    prov = json.loads((out / "rhee1996_route_branch.csv.json").read_text())
+    assert "period-1 orbit" in prov["route_to_chaos"]["route"]

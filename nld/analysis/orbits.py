@@ -119,6 +119,32 @@ class PeriodicOrbit:
             ys.append(Y[:-1])
         return np.concatenate(ts), np.vstack(ys)
 
+    def observe(self, columns, n_per_period: int = 200):
+        """A scene orbit's table columns (``nld simulate`` columns, SI units) along the whole
+        orbit: a DataFrame with ``t`` (s from the first section point) and the columns."""
+        import pandas as pd
+        m = self.map
+        kern = getattr(getattr(m, "flow", None), "kernel", None)
+        if kern is None or not isinstance(m, StroboscopicMap):
+            raise InputError("observe(): only for an orbit of a scene's stroboscopic map")
+        cols = [columns] if isinstance(columns, str) else list(columns)
+        bad = [c for c in cols if c not in kern.columns]
+        if bad:
+            raise InputError(f"column {bad[0]!r}: no such column; available: {', '.join(kern.columns)}")
+        idx = [list(kern.columns).index(c) for c in cols]
+        row = np.empty(len(kern.columns))
+        out = {"t": []}
+        out.update({c: [] for c in cols})
+        for i in range(self.period):
+            t, Y, Zs = m.trajectory(self.points[i], self.z[i], n_per_period + 1, with_z=True)
+            for k in range(n_per_period):
+                kern.module.observe(float(m.t0 + t[k]), np.ascontiguousarray(Y[k]), m.flow.p,
+                                    np.ascontiguousarray(Zs[k]), row)
+                out["t"].append(t[k] + i * m.T)
+                for c, j in zip(cols, idx):
+                    out[c].append(row[j])
+        return pd.DataFrame(out)
+
     def to_dict(self) -> dict:
         """The JSON form of ``nld orbits --json``."""
         return {"period": self.period, "points": self.points.tolist(),

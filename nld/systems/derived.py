@@ -291,12 +291,15 @@ class StroboscopicMap(_FlowMap):
         s = self.step(x, z)
         return s.x, s.z
 
-    def trajectory(self, x, z=None, n_samples: int = 200):
-        """The flow's states along one step from x: (t (s), Y (n_samples, n))."""
+    def trajectory(self, x, z=None, n_samples: int = 200, *, with_z: bool = False):
+        """The flow's states along one step from x: (t (s) from the step's start, Y (n_samples,
+        n)), and the discrete state in force at each sample (n_samples, nz) with ``with_z``."""
         z = self.z0 if z is None else z
-        y, zz = self.unpack(x, z)
+        y, zz = self.unpack(x, z, relabel=True)
         te = self.t0 + self.T * np.arange(n_samples) / (n_samples - 1)
         out, _, _ = self._plain(y, zz, self.t0, te[-1], t_eval=te)
+        if with_z:
+            return te - self.t0, out.Y[:n_samples].copy(), out.Z[:n_samples].copy()
         return te - self.t0, out.Y[:n_samples].copy()
 
     def __repr__(self):
