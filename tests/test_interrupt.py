@@ -34,25 +34,9 @@ def _env(**extra):
 def interrupt_when(argv, ready, tmp_path, timeout=180.0, sig=signal.SIGINT):
     """Run ``python -m nld argv``, send ``sig`` (SIGINT) once ``ready(stderr_text)`` is true, and
     return (exit status, stdout, stderr, seconds from the signal to exit)."""
-    err_path, out_path = tmp_path / "stderr.txt", tmp_path / "stdout.txt"
-    with open(err_path, "w") as ferr, open(out_path, "w") as fout:
-        proc = subprocess.Popen([sys.executable, "-m", "nld", *argv], cwd=tmp_path, env=_env(),
-                                stdout=fout, stderr=ferr)
-        deadline = time.monotonic() + timeout
-        try:
-            while not ready(err_path.read_text()) and proc.poll() is None:
-                assert time.monotonic() < deadline, "the command never got ready"
-                time.sleep(0.05)
-            assert proc.poll() is None, f"the command ended before the interrupt: {err_path.read_text()}"
-            t0 = time.monotonic()
-            proc.send_signal(sig)
-            rc = proc.wait(timeout=60)
-            dt = time.monotonic() - t0
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
-    return rc, out_path.read_text(), err_path.read_text(), dt
+    from interrupt import signal_when
+    rc, out, err, dt, _ = signal_when(argv, ready, tmp_path, sig, env=_env(), timeout=timeout)
+    return rc, out, err, dt
 
 
 def _last_line(err: str) -> str:
