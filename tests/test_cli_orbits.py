@@ -55,3 +55,20 @@ def test_bad_orbit_input_is_one_line_exit_2(argv, words, capsys):
     assert main(argv + ["--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert words in err and len(err.splitlines()) == 1 and "Traceback" not in err
+
+
+def test_continue_interrupted_keeps_the_finished_branch_points(tmp_path):
+    import re
+    import signal
+
+    from interrupt import signal_when
+    out = tmp_path / "cont"
+    argv = ["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu",
+            "--values", "0.1:0.06:41", "--out", str(out), "--progress"]
+    rc, _, err, dt, _ = signal_when(argv, lambda e: re.search(r"\| ?[2-9]/41", e) is not None,
+                                    tmp_path, signal.SIGINT)
+    assert rc == 130 and "Traceback" not in err and dt < 10
+    part = pd.read_parquet(out / "branch.partial.parquet")
+    assert 2 <= len(part) < 41 and part["converged"].all()
+    assert not (out / "branch.parquet").exists()
+    assert f"{len(part)} branch points computed" in err
