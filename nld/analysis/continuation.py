@@ -233,7 +233,7 @@ def _tests(o: PeriodicOrbit) -> dict:
 
 
 def _orbit_at(fam, value, like_map, orbit_guess: PeriodicOrbit, X=None, rtol=None, tol=None,
-              max_iter=12):
+              max_iter=8):
     """The period-p orbit at ``value`` from a guess (the orbit's points, or X)."""
     m = fam.map_at(value, like_map)
     pts = orbit_guess.points if X is None else X

@@ -272,7 +272,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
             progress(it, res)
         U = pack_X(X)
         accepted = False
-        for attempt in range(8):
+        for attempt in range(3):
             try:
                 dU = _solve_step(J, r, lam)
             except np.linalg.LinAlgError:

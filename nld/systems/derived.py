@@ -40,6 +40,7 @@ __all__ = ["MapStep", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
 
 # event log length of the plain (no-Jacobian) step: enough for any number of onsets per period
 _MAX_LOG = 4096
+MIN_STEP_BUDGET = 20_000
 
 
 @dataclass
@@ -150,6 +151,11 @@ class _FlowMap:
             mem_names = [f"{kern.topo.clearance[i]}.v_onset" for i in self.memory]
         self.state_names = list(system.state_names) + mem_names
         self.scales = np.concatenate([system.scales, self._memory_scales()])
+        # step budget of one map step: 20x the most steps a step has taken so far (at least
+        # MIN_STEP_BUDGET), so that a Newton trial state far off the attractor (a journal deep in
+        # its bearing: a stiff contact, tiny steps) fails in bounded time instead of running for
+        # minutes; the Newton treats the failure as a rejected trial
+        self.typical_steps = 0
         self.angle_states = getattr(system, "angle_states", np.zeros(0, dtype=np.int64))
 
     def _memory_scales(self) -> np.ndarray:
@@ -193,6 +199,9 @@ class _FlowMap:
         return d
 
     # ------------------------------------------------------------------ integration
+    def step_budget(self) -> int:
+        return int(max(MIN_STEP_BUDGET, 20 * self.typical_steps))
+
     def _plain(self, y, z, t0, t1, t_eval=None):
         """Integrate the flow from (t0, y, z) to t1 (landing there), counting contact onsets;
         with t_eval also return the states there (no landing on them)."""
@@ -202,11 +211,15 @@ class _FlowMap:
         te = np.array([float(t1)]) if t_eval is None else np.asarray(t_eval, dtype=float)
         out = as_solution(sysm.solve(float(t0), np.ascontiguousarray(y, dtype=float), te,
                                      t_eval is None, sysm.p, z, self.rtol, atol, 0.0,
-                                     float(sysm.hmax), int(50_000_000), int(sysm.n_events),
+                                     float(sysm.hmax), self.step_budget(), int(sysm.n_events),
                                      _MAX_LOG))
         if out.status != 0 or out.n_out < te.size:
             raise SolveError(f"{sysm.name}: " + method_status_message(sysm.method, out.status,
-                                                                        out.t, out.stats))
+                                                                        out.t, out.stats)
+                             + (f" (the map step's budget is {self.step_budget()} steps: 20x the "
+                                f"most a step has taken)" if out.status == -1 else ""))
+        if t_eval is None:
+            self.typical_steps = max(self.typical_steps, int(out.stats[0]))
         onsets = np.zeros(self.contacts.size, dtype=np.int64)
         k, d = out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev]
         for j, e in enumerate(self.contacts):
@@ -229,7 +242,9 @@ class _FlowMap:
         ne = int(sysm.n_events)
         diag = crossing_diag(ne)
         run = run_tangent(sysm, y, z, W, Wz, t0, [t1], self.rtol, want_div=divergence,
-                          diag=diag, orthonormalise=False)
+                          diag=diag, orthonormalise=False,
+                          max_steps=self.step_budget() if self.typical_steps else 50_000_000)
+        self.typical_steps = max(self.typical_steps, int(run.stats[0]) // 2)
         if run.status != 0:
             raise SolveError(f"{sysm.name}: the tangent integration stopped at t = {run.t:.6g} s "
                              f"(an on_event stop) before the end of the step")
