@@ -499,16 +499,24 @@ def _route_sentence(br, param, start, chaotic, force=(), joint=None) -> str:
         s = (f"Going from {param} = {start:g} towards {chaotic:g}, the period-1 orbit is followed "
              f"to {last:g} and no further (no orbit at the next value): it ends without a "
              f"bifurcation the multipliers announce.")
-        k = list(br.values).index(last) if last in list(br.values) else -1
+        vals_l = list(br.values)
+        k = vals_l.index(last) if last in vals_l else -1
         if force and k >= 0 and np.isfinite(force[k][0]) and br.orbits[k].onsets_per_period == 0:
             fmin, fmax = force[k]
-            f0 = force[list(br.values).index(start)] if start in list(br.values) else None
-            s += (f" There the contact force of {joint} over the revolution falls to "
-                  f"{fmin:.3g} N (maximum {fmax:.3g} N"
-                  + (f"; {f0[0]:.3g} N at {start:g}" if f0 is not None else "") + "): the "
-                  "journal is about to lift off, and the permanent contact ends in a non-smooth "
-                  "(grazing-type) bifurcation where the normal force reaches zero, not in a "
-                  "period doubling.")
+            # the smallest contact force over the revolution along the branch, start -> end
+            order = sorted(range(len(vals_l)), key=lambda i: (vals_l[i] - start) * sign)
+            mins = [force[i][0] for i in order if (vals_l[i] - start) * sign >= 0]
+            falling = len(mins) >= 3 and mins[-1] < mins[-2] < mins[-3]
+            s += (f" At {last:g} the smallest contact force of {joint} over the revolution is "
+                  f"{fmin:.3g} N (largest {fmax:.3g} N; along the branch "
+                  + ", ".join(f"{v:.3g}" for v in mins) + " N).")
+            if falling and fmin < 0.01 * fmax:
+                s += (" It falls towards zero: the permanent contact is about to open (the "
+                      "journal lifts off), a non-smooth end of the branch, not a period doubling.")
+            else:
+                s += (" It does not fall towards zero there, so the branch does not end by the "
+                      "journal lifting off; it ends at a fold or a jump that natural continuation "
+                      "cannot follow.")
     else:
         s = (f"The period-1 orbit exists from {start:g} to {chaotic:g} without a bifurcation: it "
              f"coexists with the chaotic motion found there from the assembly.")
