@@ -201,3 +201,12 @@ def test_map_analyses_take_a_derived_map():
     expect = np.sort(np.log(np.abs(o.multipliers)))[::-1]
     assert np.max(np.abs(sp.exponents - expect)) < 0.02
     assert sp.units == "1/iteration"
+
+
+def test_map_step_budget_follows_the_steps_a_step_takes():
+    S = impact_oscillator(*P0)
+    m = StroboscopicMap(S, 1, rtol=1e-10)
+    assert m.step_budget() >= 10_000_000          # nothing known yet: not limited
+    m.step([1.8, 0.3], relabel=True)
+    n = m.typical_steps
+    assert n > 0 and m.step_budget() == max(20_000, 20 * n)

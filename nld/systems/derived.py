@@ -200,6 +200,10 @@ class _FlowMap:
 
     # ------------------------------------------------------------------ integration
     def step_budget(self) -> int:
+        """The most steps one map step may take: unbounded (5e7) until a step has succeeded,
+        then 20x the most steps a step has taken (at least MIN_STEP_BUDGET)."""
+        if self.typical_steps == 0:
+            return 50_000_000
         return int(max(MIN_STEP_BUDGET, 20 * self.typical_steps))
 
     def _plain(self, y, z, t0, t1, t_eval=None):
@@ -217,7 +221,8 @@ class _FlowMap:
             raise SolveError(f"{sysm.name}: " + method_status_message(sysm.method, out.status,
                                                                         out.t, out.stats)
                              + (f" (the map step's budget is {self.step_budget()} steps: 20x the "
-                                f"most a step has taken)" if out.status == -1 else ""))
+                                f"most a step has taken)" if out.status == -1 and self.typical_steps
+                                else ""))
         if t_eval is None:
             self.typical_steps = max(self.typical_steps, int(out.stats[0]))
         onsets = np.zeros(self.contacts.size, dtype=np.int64)
@@ -243,7 +248,7 @@ class _FlowMap:
         diag = crossing_diag(ne)
         run = run_tangent(sysm, y, z, W, Wz, t0, [t1], self.rtol, want_div=divergence,
                           diag=diag, orthonormalise=False,
-                          max_steps=self.step_budget() if self.typical_steps else 50_000_000)
+                          max_steps=self.step_budget())
         self.typical_steps = max(self.typical_steps, int(run.stats[0]) // 2)
         if run.status != 0:
             raise SolveError(f"{sysm.name}: the tangent integration stopped at t = {run.t:.6g} s "
