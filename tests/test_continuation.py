@@ -59,6 +59,19 @@ def test_period_doubling_where_the_brute_force_diagram_doubles():
     o2 = period_doubled_orbit(S, "gamma", pds[0])
     assert o2.period == 2 and o2.converged and o2.stable is True
     assert np.max(np.abs(o2.points[0] - o2.points[1])) > 1e-3
+    # the doubled branch, continued, doubles again where the brute-force section goes 2 -> 4
+    g2 = o2.settings["value"]
+    br2 = continue_orbit(duffing(gamma=g2), o2, "gamma", range=(g2, 0.30), step=0.005)
+    pd4 = [b for b in br2.bifurcations if b.kind == "period_doubling"]
+    assert len(pd4) == 1 and pd4[0].value > g
+    g4 = pd4[0].value
+    periods = []
+    for gg in (g4 - 0.002, g4 + 0.002):
+        m = StroboscopicMap(duffing(gamma=gg, y0=o2.points[0]), 1, 1e-10)
+        X, _ = section_points(m, m.y0, m.z0, 400)
+        tail = X[-8:, 0]
+        periods.append(2 if np.ptp(tail[::2]) < 1e-6 else (4 if np.ptp(tail[::4]) < 1e-6 else 0))
+    assert periods == [2, 4]
 
 
 def test_bad_continuation_input_is_refused(impact_orbit):
