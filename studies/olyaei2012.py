@@ -67,7 +67,7 @@ QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-1
              case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10,
              check_rtol_factor=0.1, check_span=2, workers=1,
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
-                        transient=10, values=[0.09, 0.1]))
+                        transient=10, values=[0.09, 0.1], rtol=1e-8))
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
@@ -819,7 +819,7 @@ def run_route(study, st: dict) -> dict:
     study.stage("route to chaos (periodic orbits)")
     return route_to_chaos(SCENE, [], r["param"], r["values"], start=r["start"],
                           chaotic=r["chaotic"], transient=r["transient"],
-                          max_period=r["max_period"])
+                          max_period=r["max_period"], rtol=r.get("rtol", 1e-10))
 
 
 def showcase_states(points: dict, st: dict, walls: dict) -> dict:

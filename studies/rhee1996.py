@@ -56,7 +56,7 @@ QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_r
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
              rtol_check=1e-8, check_span=2, workers=1,
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
-                        transient=10, values=[0.09, 0.1]))
+                        transient=10, values=[0.09, 0.1], rtol=1e-8))
 MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
 
 # name -> (group, overrides, clearance [m], mu)
@@ -608,7 +608,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     r = st["route"]
     route = route_to_chaos(SCENE, [], r["param"], r["values"], start=r["start"],
                            chaotic=r["chaotic"], transient=r["transient"],
-                           max_period=r["max_period"])
+                           max_period=r["max_period"], rtol=r.get("rtol", 1e-10))
     wall = study.elapsed()
     study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
                      cases={n: {"overrides": CASES[n][1]} for n in CASES},

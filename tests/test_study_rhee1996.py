@@ -181,7 +181,7 @@ def test_route_to_chaos_branch_saved_with_its_sentence(quick_run):
     study, out, pdf = quick_run
     br = pd.read_csv(out / "rhee1996_route_branch.csv")
     assert sorted(br["value"]) == [0.09, 0.1]
-    assert br["converged"].all() and (br["residual"] < 1e-6).all()
+    assert br["converged"].all() and (br["residual"] <= 1e-5).all()      # 1e3 rtol (1e-8)
     # the four-bar runs in permanent contact at mu 0.09-0.1: no onset, the memory's multiplier 1
     assert (br["onsets_per_period"] == 0).all() and br["continuum"].all()
     assert (br["min_Fn"] > 0).all() and (br["max_Fn"] > br["min_Fn"]).all()
