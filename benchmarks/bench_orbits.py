@@ -57,7 +57,7 @@ def main():
     r, o_oly = orbit_case("slider_crank_olyaei (defaults), 10-rev transient guess", olyaei,
                           transient=10)
     rows.append(r)
-    r, _ = orbit_case("slider_crank (2 impacts per rev), 10-rev transient guess",
+    r, _ = orbit_case("slider_crank (chaotic at its defaults: no period-1 orbit expected), 10-rev transient guess",
                       SceneSystem("slider_crank"), transient=10)
     rows.append(r)
     r, _ = orbit_case("impact oscillator, guess (1, 0.5)", impact_oscillator(), guess=[1.0, 0.5])
