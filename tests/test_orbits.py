@@ -44,6 +44,14 @@ def test_henon_orbit_count_matches_published_table():
         assert o.residual < 1e-10 and o.stable is False
 
 
+def test_stabilising_transformations_alone_find_the_published_orbits():
+    # Schmelcher & Diakonos: x <- x + lam C (f^p(x) - x) over the 8 signed permutations C, from 60
+    # attractor points, no close-return or grid seeds: the same 2, 1, 0, 1, 0, 2, 4, 7 (the
+    # fixed point off the attractor included)
+    orbs = find_orbits(henon(), 8, seeds_per_period=0, stabilising=60)
+    assert [sum(1 for o in orbs if o.period == p) for p in range(1, 9)] == [2, 1, 0, 1, 0, 2, 4, 7]
+
+
 def test_newton_that_fails_says_so_and_returns_its_best_iterate():
     o = periodic_orbit(henon(), 7, np.full((7, 2), 5.0), max_iter=3)
     assert not o.converged

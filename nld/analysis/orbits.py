@@ -38,7 +38,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import itertools
+
 import numpy as np
+from numba import njit
 
 from nld.errors import InputError, SolveError
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map, never_reset
@@ -556,16 +559,92 @@ def _same_orbit(m, A, B, tol) -> bool:
     return False
 
 
+# ---------------------------------------------------------------------------------------------------
+# stabilising transformations (Schmelcher & Diakonos 1997)
+
+
+def signed_permutations(n: int) -> list:
+    """The n! 2^n signed permutation matrices C of Schmelcher & Diakonos (1997): for each
+    hyperbolic fixed point one of them makes it a stable fixed point of
+    x -> x + lam C (f(x) - x) for small lam > 0."""
+    if n > 4:
+        raise InputError(f"stabilising transformations: {n} states give {math.factorial(n) * 2**n} "
+                         "matrices; use them for maps of at most 4 states")
+    out = []
+    for perm in itertools.permutations(range(n)):
+        for signs in itertools.product((1.0, -1.0), repeat=n):
+            C = np.zeros((n, n))
+            for i, j in enumerate(perm):
+                C[i, j] = signs[i]
+            out.append(C)
+    return out
+
+
+@njit(cache=False)
+def _sd_iterate(f, x0, p, C, lam, period, max_steps, tol, bound):
+    """x <- x + lam C (f^period(x) - x) from x0 until max |f^p(x) - x| <= tol (returns x, True)
+    or max_steps / leaving |x| <= bound (returns x, False)."""
+    n = x0.shape[0]
+    x = x0.copy()
+    y = np.empty(n)
+    tmp = np.empty(n)
+    d = np.empty(n)
+    for _ in range(max_steps):
+        for i in range(n):
+            y[i] = x[i]
+        for _k in range(period):
+            f(y, p, tmp)
+            for i in range(n):
+                y[i] = tmp[i]
+        big = 0.0
+        for i in range(n):
+            d[i] = y[i] - x[i]
+            if abs(d[i]) > big:
+                big = abs(d[i])
+        if not big <= bound:
+            return x, False
+        if big <= tol:
+            return x, True
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += C[i, j] * d[j]
+            x[i] += lam * acc
+    return x, False
+
+
+def stabilised_seeds(m: NumbaMap, period: int, starts, *, lam: float | None = None,
+                     max_steps: int = 2000, tol: float = 1e-9) -> list:
+    """Fixed points of f^period reached by the stabilising transformations from each start and
+    each signed permutation C (Schmelcher & Diakonos 1997; Davidchack & Lai 1999 use the same C
+    with a semi-implicit step): x <- x + lam C (f^p(x) - x), lam default 0.5 / 1.5^period (the
+    multipliers of f^p grow with p). Returns the converged points (for Newton to polish)."""
+    if not isinstance(m, NumbaMap):
+        raise InputError("stabilising transformations: only for a DiscreteMap (a cheap map)")
+    lam = 0.5 / 1.5 ** period if lam is None else float(lam)
+    bound = 1e6 * float(np.max(np.abs(m.scales)))
+    out = []
+    for C in signed_permutations(m.n):
+        for x0 in starts:
+            x, ok = _sd_iterate(m.system.f, np.ascontiguousarray(x0, dtype=float), m.p, C, lam,
+                                int(period), int(max_steps), float(tol), bound)
+            if ok:
+                out.append(x)
+    return out
+
+
 def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
                 transient: int | None = None, seeds_per_period: int | None = None,
                 rtol: float | None = None, tol: float | None = None, grid: int = 0,
-                progress=None) -> list[PeriodicOrbit]:
+                stabilising: int = 0, progress=None) -> list[PeriodicOrbit]:
     """The distinct periodic orbits of periods 1..max_period near the system's attractor.
 
     Seeds: the close returns ||P^p(x_i) - x_i|| of ``n_points`` section points after a
     ``transient`` (defaults: maps 2000 points after 100; flows 120 after 50), the
     ``seeds_per_period`` closest per period (maps 400, flows 6), and for a map a ``grid`` x grid
-    lattice over the box of the points enlarged by half its size (default 0: none). Each seed is
+    lattice over the box of the points enlarged by half its size (default 0: none), and for a map
+    with ``stabilising`` > 0 the fixed points of f^p reached by the stabilising transformations of
+    Schmelcher & Diakonos (1997) from that many attractor points (:func:`stabilised_seeds`). Each seed is
     refined by :func:`periodic_orbit` (multiple shooting for p >= 2); orbits that are not of prime
     period p, or equal to one found (any cyclic shift), are dropped. Returns the converged orbits
     by period, then by decreasing max |mu|.
@@ -601,6 +680,10 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
                     for k in range(m.n)]
             for pt in np.array(np.meshgrid(*axes)).reshape(m.n, -1).T:
                 starts.append((section_points(m, pt, m.z0, p)[0], [m.z0] * p))
+        if stabilising and not is_flow:
+            pick = X[np.linspace(0, len(X) - 1, int(stabilising)).astype(int)]
+            for x in stabilised_seeds(m, p, pick):
+                starts.append((section_points(m, x, m.z0, p)[0], [m.z0] * p))
         per_p: list[PeriodicOrbit] = []
         for k, (Xs, Zs) in enumerate(starts):
             if progress is not None:
