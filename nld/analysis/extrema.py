@@ -126,7 +126,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
                       refine_top: int = 4, peak_rtol: float = 1e-6, dense: int = 32,
                       min_width: float = 1e-12, max_iter: int = 40, absolute=True, overrides=None,
                       max_steps: int = 200_000_000, max_steps_per_rev: int | None = None, kernel=None,
-                      progress=None) -> RevolutionRun:
+                      progress=None, y0=None) -> RevolutionRun:
     """Run ``transient_revs + revs`` crank revolutions from the assembled state and locate the
     maximum of each of ``columns`` in each of the last ``revs`` revolutions (module docstring).
 
@@ -136,6 +136,9 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     ``steady`` marks the statistics part). absolute: bool or a dict column -> bool. max_steps: for
     the whole run; max_steps_per_rev: for any one revolution (a run whose step count explodes,
     e.g. by mode chatter, stops there with the integrator's message instead of running on).
+    y0: start from this state (independent coordinates then speeds, the kernel's order; e.g. a
+    seeded perturbation of the assembled state for an independent realisation,
+    nld.analysis.peaks) instead of the assembled one; the modes are set from it.
     maxima columns: ``rev`` (0 = first revolution after the transient), ``column``, ``t_start``
     (s), ``sampled`` (max over the kept samples of the revolution), ``detected`` (max over the
     detection samples), ``peak`` (refined), ``t_peak`` (s), ``iterations`` (zoom levels, summed
@@ -171,6 +174,12 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     p = kern.params(scene)
     period = crank_period(scene, "revs")
     y, z, q_init = initial_state(kern)
+    if y0 is not None:
+        y0 = np.asarray(y0, dtype=float)
+        if y0.shape != y.shape or not np.all(np.isfinite(y0)):
+            raise InputError(f"y0: must be {y.size} finite numbers (independent coordinates then "
+                             f"speeds of scene {scene.name!r}), got shape {y0.shape}")
+        y = y0.copy()
     z = np.array(z, dtype=float)
     kern.init_modes(0.0, y, p, z)
     atol = tolerances(kern, q_init, rtol)
@@ -202,6 +211,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
                 sig.handled = interrupted = True
                 break
             te = np.ascontiguousarray(k * period + base)
+            te[0] = t      # k * period can round 1 ulp above the end of the last revolution
             cap = steps_left if max_steps_per_rev is None else min(steps_left, int(max_steps_per_rev))
             out = solve(t, y, te, False, p, z, float(rtol), atol, h0, hmax, cap, n_ev, max_log)
             out = as_solution(out)
