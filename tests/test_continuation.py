@@ -97,3 +97,31 @@ def test_scene_parameter_family_keeps_one_kernel():
     assert s2.kernel.key == S.kernel.key and not np.array_equal(s2.p, S.p)
     with pytest.raises(InputError, match="no such scene key"):
         Family(S, "joints.B.friction.muu")
+
+
+def test_period_doubling_on_a_clearance_scene_where_the_section_doubles():
+    # slider_crank_olyaei (5000 rpm, mu = 0.1): the permanent-contact period-1 orbit reached from
+    # c = 0.28 mm is unstable (multiplier < -1); followed up in the clearance it regains stability
+    # through -1. Brute force from the orbit's own state (same contact-law memory): period 2 just
+    # below the located value, period 1 just above (the study's sweep from the assembly has
+    # period-2 sections at 0.281 mm and period 1 at 0.316 mm)
+    from nld.systems import SceneSystem
+    S = SceneSystem("slider_crank_olyaei", ["joints.B.clearance=0.28e-3"])
+    o1 = periodic_orbit(S, 1, transient=100, rtol=1e-10)
+    assert o1.converged and o1.continuum and o1.stable is False
+    br = continue_orbit(S, o1, "joints.B.clearance", [0.28e-3, 0.2835e-3, 0.287e-3, 0.29e-3],
+                        locate_tol=2e-8)
+    pds = [b for b in br.bifurcations if b.kind == "period_doubling"]
+    assert len(pds) == 1 and 0.28e-3 < pds[0].value < 0.29e-3
+    assert abs(pds[0].multiplier + 1.0) < 0.05
+    fam = Family(S, "joints.B.clearance")
+    spread = []
+    for dc in (-1.5e-6, 1.5e-6):
+        m = fam.map_at(pds[0].value + dc, o1.map)
+        X, _ = section_points(m, o1.points[0], o1.z[0], 150)
+        tail = X[-10:]
+        spread.append([float(np.max(np.abs(m.difference(tail[k:], tail[:-k]) / m.scales)))
+                       for k in (1, 2)])
+    (below1, below2), (above1, _) = spread
+    assert below1 > 0.1 and below2 < 1e-3        # period 2 below
+    assert above1 < 1e-3                         # period 1 above

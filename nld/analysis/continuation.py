@@ -550,6 +550,14 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
     out = []
     ta, tb = _tests(oa), _tests(ob)
     checks = []
+    # the multiplier tests compare like with like: across a change of the contact pattern (onsets
+    # per period, or a memory that becomes never reset) the set of multipliers itself changes
+    # (a reset memory contributes a 0, a never reset one the neutral 1): that change is reported as
+    # grazing / contact_change below, not as a fold or period doubling
+    same_kind = oa.continuum == ob.continuum and ta["contacts"] == tb["contacts"]
+    if not same_kind:
+        ta = dict(ta, pd=1.0, fold=1.0, ns=None)
+        tb = dict(tb, pd=1.0, fold=1.0, ns=None)
     if ta["pd"] * tb["pd"] < 0:
         checks.append(("period_doubling", "pd"))
     if ta["fold"] * tb["fold"] < 0:
