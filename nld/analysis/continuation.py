@@ -46,6 +46,7 @@ from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
 __all__ = ["Family", "Bifurcation", "Branch", "continue_orbit", "period_doubled_orbit",
            "KINDS"]
 
+ARCLENGTH_PARAM_UNIT = 0.02       # of the range: the parameter's weight in the arclength
 KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing", "contact_change")
 
 
@@ -470,7 +471,11 @@ def _natural(fam, like, orbit, v0, v, tol, progress, on_point):
 
 def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_point):
     """Pseudo-arclength continuation from v0 towards b, then from v0 towards a."""
-    lam_scale = max(abs(b - a), 1e-300)
+    # the parameter's unit in the arclength: 1/50 of the range, so that a default step (range/50)
+    # is one unit of arclength when the branch is flat, as a clearance-sized change of the state
+    # is; with the whole range as the unit a branch steep in the scaled state crawled in the
+    # parameter (1e-7 per step on slider_crank_olyaei)
+    lam_scale = max(abs(b - a) * ARCLENGTH_PARAM_UNIT, 1e-300)
     segments = []
     msgs = []
     for target in ([b, a] if a != v0 else [b]):
