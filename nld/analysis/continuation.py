@@ -493,7 +493,7 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
             U = _unknowns(o, fam.map_at(lam, like))
             V = np.concatenate([U, [lam / lam_scale]])
             ok = None
-            while h >= 1e-6 * ds / lam_scale:
+            while h >= 1e-3 * ds / lam_scale:        # shorter: a non-smooth point
                 V_pred = V + h * t
                 ok = _arclength_corrector(fam, like, o, V_pred, t, lam_scale,
                                           _frozen(o, m0), tol)
