@@ -428,12 +428,9 @@ def continue_orbit(system, orbit: PeriodicOrbit, param, values=None, *, range=No
 
 def _natural(fam, like, orbit, v0, v, tol, progress, on_point):
     """Natural continuation outwards from v0 over the values (both directions)."""
-    up = [x for x in v if x > v0 + 1e-12 * max(1.0, abs(v0))]
-    down = [x for x in v[::-1] if x < v0 - 1e-12 * max(1.0, abs(v0))]
-    if v[0] > v[-1]:
-        up, down = sorted(up), sorted(down, reverse=True)
-    else:
-        up, down = sorted(up), sorted(down, reverse=True)
+    eps = 1e-12 * max(1.0, abs(v0))
+    up = sorted(x for x in v if x > v0 + eps)                   # outwards from v0, both ways
+    down = sorted((x for x in v if x < v0 - eps), reverse=True)
     res = {v0: orbit}
     msgs = []
     done = 0
