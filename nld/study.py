@@ -619,3 +619,21 @@ def route_tables(route: dict) -> dict:
         point=[o.points[0].tolist()]) for o in ups], ignore_index=True) if ups
         else pd.DataFrame(columns=["period", "stable", "max_abs_mu"]))
     return out
+
+
+def run_route(study, scene: str, st: dict) -> dict:
+    """:func:`route_to_chaos` with a study's ``st["route"]`` settings, its provenance record in
+    ``study.prov["route_to_chaos"]`` (add it after ``study.provenance``) and progress stage."""
+    r = st["route"]
+    study.stage("route to chaos (periodic orbits)")
+    return route_to_chaos(scene, [], r["param"], r["values"], start=r["start"],
+                          chaotic=r["chaotic"], transient=r["transient"],
+                          max_period=r["max_period"], rtol=r.get("rtol", 1e-10))
+
+
+def save_route(study, route: dict) -> None:
+    """The route's provenance record and its tables (``<stem>_route_branch.csv``,
+    ``<stem>_route_orbits.csv``)."""
+    study.prov["route_to_chaos"] = route_record(route)
+    for name, tab in route_tables(route).items():
+        study.save(f"_route_{name}.csv", tab)

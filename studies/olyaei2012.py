@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import route_pages, route_record, route_tables
+from nld.study import route_pages, run_route, save_route
 
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
@@ -799,27 +799,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     t_tc = time.perf_counter()
     tolcheck = tolerance_check(points, st)
     walls["tolerance check"] = time.perf_counter() - t_tc
-    route = run_route(study, st)
+    route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
     walls["route to chaos"] = route["wall_s"]
     total_wall = study.elapsed()
     _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
-    study.prov["route_to_chaos"] = route_record(route)
     stacked = _save(study, sweeps, points, summary, tolcheck, states)
-    for name, tab in route_tables(route).items():
-        study.save(f"_route_{name}.csv", tab)
+    save_route(study, route)
     _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route)
     return study.pdf
-
-
-def run_route(study, st: dict) -> dict:
-    """The period-1 orbit of the friction sweep (5000 rpm) continued from mu = 0.1 towards the
-    chaotic range, its bifurcations, and the orbits inside it (nld.study.route_to_chaos)."""
-    from nld.study import route_to_chaos
-    r = st["route"]
-    study.stage("route to chaos (periodic orbits)")
-    return route_to_chaos(SCENE, [], r["param"], r["values"], start=r["start"],
-                          chaotic=r["chaotic"], transient=r["transient"],
-                          max_period=r["max_period"], rtol=r.get("rtol", 1e-10))
 
 
 def showcase_states(points: dict, st: dict, walls: dict) -> dict:

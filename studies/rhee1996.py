@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import route_pages, route_record, route_tables, route_to_chaos
+from nld.study import route_pages, run_route, save_route
 
 SCENE = "four_bar"
 STEM = "rhee1996"
@@ -604,11 +604,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     sweeps.update({f"{k}_check": v for k, v in chk.items() if v is not None})
     add_sweep_verdicts(res, pts_c, pts_f)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
-    study.stage("route to chaos (periodic orbits)")
-    r = st["route"]
-    route = route_to_chaos(SCENE, [], r["param"], r["values"], start=r["start"],
-                           chaotic=r["chaotic"], transient=r["transient"],
-                           max_period=r["max_period"], rtol=r.get("rtol", 1e-10))
+    route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
     wall = study.elapsed()
     study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
                      cases={n: {"overrides": CASES[n][1]} for n in CASES},
@@ -621,10 +617,8 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                                    "friction": pts_f.to_dict(orient="records")},
                      sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
                                       for k, v in sweeps.items()})
-    study.prov["route_to_chaos"] = route_record(route)
     _save(study, base, res, sweeps, summary)
-    for name, tab in route_tables(route).items():
-        study.save(f"_route_{name}.csv", tab)
+    save_route(study, route)
     _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route)
     return study.pdf
 
