@@ -218,3 +218,30 @@ def test_map_step_budget_follows_the_steps_a_step_takes():
     m.step([1.8, 0.3], relabel=True)
     n = m.typical_steps
     assert n > 0 and m.step_budget() == max(20_000, 20 * n)
+
+
+def test_permanent_contact_exponent_is_flagged_conditional_on_the_memory():
+    # issue 25's slider_crank_olyaei case: in permanent contact the Lankarani-Nikravesh memory
+    # is never reset; the tangent estimator says so and names the value, and the orbit's
+    # multipliers (its exponent) change with that history value
+    from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.systems import SceneSystem
+    S = SceneSystem("slider_crank_olyaei")
+    lam = lyapunov_tangent(S, transient=20 * S.period, total=8 * S.period, rtol=1e-10)
+    dg = lam.diagnostics
+    assert dg["permanent_contact"] and list(dg["conditional_on_memory"]) == ["B.v_onset"]
+    v = dg["conditional_on_memory"]["B.v_onset"]
+    assert v > 0
+    o1 = periodic_orbit(S, 1, transient=20, rtol=1e-10)
+    # the same last impact reached by two integrations (the transient's, the map's): same memory
+    assert o1.continuum and abs(o1.points[0, -1] - v) < 1e-3 * v
+    x2 = o1.points[0].copy()
+    x2[-1] = 3 * v                       # another history: a harder last impact
+    o2 = periodic_orbit(S, 1, x2, z=o1.z[0], rtol=1e-10)
+    assert o2.converged and o2.continuum and abs(o2.points[0, -1] - 3 * v) < 1e-12
+    mu1, mu2 = (np.sort(np.abs(o.multipliers))[-2] for o in (o1, o2))
+    assert abs(mu1 - mu2) > 10 * (np.max(o1.multiplier_error) + np.max(o2.multiplier_error))
+    # an impacting motion is not flagged
+    lam_i = lyapunov_tangent(SceneSystem("slider_crank"), transient=5 * S.period,
+                             total=4 * S.period, rtol=1e-9)
+    assert not lam_i.diagnostics["permanent_contact"]

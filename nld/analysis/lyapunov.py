@@ -794,7 +794,8 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     simultaneous events) and per-period rates of them; ``settings`` every setting used.
     """
     from nld.systems.tangent import diag_dict, run_tangent, tangent_functions
-    from nld.integrators.tangent import new_diag
+    from nld.integrators.tangent import N_DIAG, crossing_diag
+    from nld.systems.derived import memory_pairs
     if system.is_map:
         return lyapunov_spectrum(system, k, transient=transient, total=total,
                                  renorm_interval=renorm_interval, seed=seed, n_blocks=n_blocks)
@@ -853,7 +854,8 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         run = run_tangent(system, y, z, W, Wz, t - sh, (t - sh) + T * np.arange(1, n_al + 1),
                           rtol, tangent_err=tangent_err, h0=h)
         y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t + sh
-    diag = new_diag()
+    n_ev = int(getattr(system, "n_events", 0))
+    diag = crossing_diag(n_ev)          # + per event: smallest onset speed, onset count
     logs: list[np.ndarray] = []
     n_target = n_int
     n_max = n_int if target_uncertainty is None else int(round(max_total / T))
@@ -918,6 +920,13 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         dd["onsets_per_period"] = dd["upward_crossings"] / periods
     dd["steps"] = int(stats[1])
     dd["rejected"] = int(stats[2])
+    # permanent contact: a contact-law memory that no onset reset over the averaging span is a
+    # neutral direction (multiplier 1) set by the history; the exponent is conditional on it
+    frozen = {name: float(z[i]) for i, e, name in memory_pairs(system)
+              if e >= 0 and diag[N_DIAG + n_ev + e] == 0}
+    dd["permanent_contact"] = bool(frozen)
+    if frozen:
+        dd["conditional_on_memory"] = frozen
     settings = dict(estimator="tangent", transient=float(transient), align=float(align),
                     total=avg_time, renorm_interval=T, rtol=float(rtol), seed=seed,
                     tangent_err=bool(tangent_err), jacobian=how, norm="scaled",

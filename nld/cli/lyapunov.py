@@ -190,6 +190,13 @@ def cmd_lyapunov(args) -> int:
     else:
         line += f", d0 {st['d0']:g}, {st['checks']} checks per revolution"
     print(line)
+    if out["diagnostics"].get("permanent_contact"):
+        mem = ", ".join(f"{k} = {v:.4g} m/s" for k, v in out["diagnostics"]["conditional_on_memory"].items())
+        import sys
+        print("nld: warning: permanent contact over the averaging span (no contact onset): the "
+              f"exponent is conditional on the recorded approach velocity {mem}, which the history "
+              "set; another transient gives another value (docs/orbits.md, 'Memory state')",
+              file=sys.stderr)
     if out.get("check"):
         c = out["check"]
         print(f"check: tangent {c['tangent'] * T:.4g} +- {c['tangent_uncertainty'] * T:.2g}, "

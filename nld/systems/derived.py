@@ -87,6 +87,18 @@ def kern_of(system):
     return getattr(system, "kernel", None)
 
 
+def memory_pairs(system) -> list:
+    """(z index, contact event index, name) of each memory entry of ``system``: a scene's
+    z[ci] is reset at the onset of clearance joint ci (event ci, named ``<joint>.v_onset``);
+    another flow's memory entry j by contact event j (named ``z<i>``), -1 where there is none."""
+    mem = [int(i) for i in getattr(system, "memory", ())]
+    kern = kern_of(system)
+    if kern is not None:
+        return [(i, i, f"{kern.topo.clearance[i]}.v_onset") for i in mem]
+    ce = contact_events(system)
+    return [(i, int(ce[j]) if j < ce.size else -1, f"z{i}") for j, i in enumerate(mem)]
+
+
 def never_reset(m, steps) -> np.ndarray:
     """Positions in the augmented state of the memory entries that no contact onset reset during
     ``steps`` (a permanent contact or no contact): neutral directions, a history, not a state."""
