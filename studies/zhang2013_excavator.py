@@ -14,7 +14,7 @@ Cases (crank at 15.6 rad/s, Coulomb friction as hybrid stick/slip modes, damped 
 
 Each run starts from the assembled ideal state and is integrated over ``transient_revs`` crank
 revolutions that are discarded, then ``steady_revs`` whose per-revolution maxima are located from the
-dense output (nld.analysis.extrema) and summarised as mean +- standard error; the first ``plot_revs`` are
+dense output (nld.analysis.extrema) and summarised as mean +- a 95 % interval (nld.analysis.peaks); the first ``plot_revs`` are
 plotted. Outputs, in ``out_dir``: ``zhang2013_excavator.pdf`` (the report),
 ``zhang2013_excavator.parquet`` (the stored samples of every case, columns ``case`` and ``steady``
 first, provenance in the metadata and the ``.json`` sidecar), ``zhang2013_excavator_maxima.csv``
@@ -41,7 +41,7 @@ CITATION = ("Zhang Su-xia, Liu Xi-jun, Xu Long-xu, Hou Shu-jun (2013), \"Nonline
             "paper 1129")
 
 # run settings: full and quick mode (and a smoke mode for the test suite). Each case runs
-# transient_revs + steady_revs crank revolutions; the statistics (mean +- standard error of the
+# transient_revs + steady_revs crank revolutions; the statistics (mean +- 95 % interval of the
 # per-revolution maxima) use all steady_revs, the figures show the first plot_revs of them.
 # samples_per_rev: detection samples per revolution (nld.analysis.extrema); every keep_every-th is stored and
 # plotted; the refine_top largest local maxima of each revolution are refined from the dense output
@@ -217,15 +217,25 @@ def _absmax(s: pd.Series) -> float:
     return float(np.nanmax(a)) if a.size else float("nan")
 
 
+PEAK_LEVEL = 0.95         # level of the peak intervals (nld.analysis.peaks.peak_interval)
+
+
 def revolution_stats(maxima: pd.DataFrame) -> pd.DataFrame:
-    """Per case and quantity: number of revolutions, mean, standard error (sample standard
-    deviation / sqrt(n)), min and max of the refined per-revolution peaks, and the means of the
-    maxima read off the kept and the detection samples."""
+    """Per case and quantity: number of revolutions, mean and PEAK_LEVEL interval half-width of the
+    refined per-revolution peaks (nld.analysis.peaks.peak_interval: Student-t interval of batch
+    means, the batch length from the integrated autocorrelation time of the series; ``batch``,
+    ``tau``), the plain standard error (std / sqrt(n), ``se``: as if the revolutions were
+    independent), min and max, and the means of the maxima read off the kept and the detection
+    samples."""
+    from nld.analysis.peaks import peak_interval
     rows = []
     for (case, col), g in maxima.groupby(["case", "column"], sort=False):
         n = len(g)
         pk = g["peak"].to_numpy(float)
+        iv = peak_interval(pk, PEAK_LEVEL) if n > 1 and np.all(np.isfinite(pk)) else None
         rows.append({"case": case, "column": col, "revs": n, "mean": float(pk.mean()),
+                     "half_width": iv.half_width if iv else float("nan"),
+                     "batch": iv.batch if iv else 0, "tau": iv.tau if iv else float("nan"),
                      "se": float(pk.std(ddof=1) / math.sqrt(n)) if n > 1 else float("nan"),
                      "min": float(pk.min()), "max": float(pk.max()),
                      "mean_sampled": float(g["sampled"].mean()), "mean_detected": float(g["detected"].mean()),
@@ -234,8 +244,8 @@ def revolution_stats(maxima: pd.DataFrame) -> pd.DataFrame:
 
 
 def summary_table(stats: pd.DataFrame, ideal: pd.DataFrame, t_steady: float) -> pd.DataFrame:
-    """The comparison table (paper vs nld vs ideal joints): mean +- standard error of the located
-    per-revolution maxima over the steady revolutions."""
+    """The comparison table (paper vs nld vs ideal joints): mean +- PEAK_LEVEL interval half-width
+    of the located per-revolution maxima over the steady revolutions (revolution_stats)."""
     ideal_s = _steady(ideal, t_steady)
     ideal_vals = {
         "max |rod.omega|": _absmax(ideal_s["rod.omega"]),
@@ -251,8 +261,10 @@ def summary_table(stats: pd.DataFrame, ideal: pd.DataFrame, t_steady: float) -> 
             mean = float(r["mean"]) if r is not None else float("nan")
             paper = paper_omega if col == "rod.omega" else float("nan")
             rows.append({"quantity": qty, "case": name, "unit": unit, "paper": paper, "nld": mean,
-                         "± se": float(r["se"]) if r is not None else float("nan"),
+                         "± 95 %": float(r["half_width"]) if r is not None else float("nan"),
                          "revs": int(r["revs"]) if r is not None else 0,
+                         "batch": int(r["batch"]) if r is not None else 0,
+                         "realisations": 1,
                          "sampled": float(r["mean_sampled"]) if r is not None else float("nan"),
                          "ideal joints": ideal_vals[qty],
                          "nld / paper": mean / paper if paper == paper else float("nan"),
@@ -632,13 +644,13 @@ def _fig_bifurcation(rep, sweep, secs, pts, an, period):
 
 
 def _fig_maxima(rep, maxima, summary, settings):
-    """The per-revolution maxima of every case (dots) with their mean ± standard error, the paper's
+    """The per-revolution maxima of every case (dots) with their mean ± 95 % interval, the paper's
     numbers and the ideal-joint value, one panel per quantity."""
     names = list(CASES)
     x = np.arange(len(names))
     with rep.style():
         fig, axes = rep.subplots(2, 2, squeeze=False, sharex=True,
-                                 title="Per-revolution maxima (located) with mean ± standard error")
+                                 title="Per-revolution maxima (located) with mean ± 95 % interval")
         for ax, (qty, (col, _, unit)) in zip(axes.ravel(), QUANTITIES.items()):
             scale, u = (1e-3, "kN") if unit == "N" else (1.0, unit)
             rows = summary[summary["quantity"] == qty].set_index("case")
@@ -647,9 +659,9 @@ def _fig_maxima(rep, maxima, summary, settings):
                 jit = (np.arange(len(g)) / max(len(g) - 1, 1) - 0.5) * 0.3
                 ax.plot(k + jit, g["peak"] * scale, ls="", marker=".", ms=3, color="0.6",
                         label="one revolution" if k == 0 else None)
-                ax.errorbar([k], [rows.loc[name, "nld"] * scale], yerr=[rows.loc[name, "± se"] * scale],
+                ax.errorbar([k], [rows.loc[name, "nld"] * scale], yerr=[rows.loc[name, "± 95 %"] * scale],
                             fmt="o", ms=5, capsize=4, color=COLORS[name],
-                            label="mean ± standard error" if k == 0 else None)
+                            label="mean ± 95 % interval" if k == 0 else None)
                 if rows.loc[name, "paper"] == rows.loc[name, "paper"]:
                     ax.plot([k + 0.25], [rows.loc[name, "paper"] * scale], ls="", marker="*", ms=10,
                             color="tab:red", label="paper (text)" if k == 0 else None)
@@ -660,7 +672,7 @@ def _fig_maxima(rep, maxima, summary, settings):
             ax.legend(loc="upper left", fontsize=7)
     n = int(summary["revs"].min()) if len(summary) else 0
     rep.figure(fig, caption=f"Grey dots: the located maximum of the quantity in each of the {n} steady "
-                            "revolutions of a case; coloured: their mean ± standard error (the table's "
+                            "revolutions of a case; coloured: their mean ± 95 % interval (batch means, nld.analysis.peaks; the table's "
                             "values). Red stars: the paper's maximum rod angular velocity (stated in its "
                             "text: 40 and 90 rad/s at f = 0 and 0.05, 20 and 200 rad/s at r = 0.01 and "
                             "0.5 mm); the paper gives no number for the forces and the torque and has no "
@@ -773,7 +785,7 @@ def _agreement_text(summary, pts, tables=None, ideal=None, ts=0.0):
         for name in CASES:
             acc[name] = _absmax(_steady(tables[name], ts)["rod.alpha"]) / ia if ia else float("nan")
     val = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "nld"]].itertuples(index=False)}
-    se = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "± se"]].itertuples(index=False)}
+    se = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "± 95 %"]].itertuples(index=False)}
 
     def tr(q, a, b):
         return _trend_se(val[(q, a)], se[(q, a)], val[(q, b)], se[(q, b)])
@@ -861,15 +873,16 @@ def _text_intro(mode_label, settings, summary, runs, period):
         "the stored state over the window between their neighbouring samples, with the integrator's "
         "dense output, zooming on the largest value until it changes by less than "
         f"{settings['peak_rtol']:g} (nld.analysis.extrema). A quantity's value in the tables is the mean of these "
-        f"per-revolution maxima over the {settings['steady_revs']:g} steady revolutions ± its standard "
-        "error.",
+        f"per-revolution maxima over the {settings['steady_revs']:g} steady revolutions ± a 95 % Student-t "
+        "interval of batch means whose length follows the integrated autocorrelation time of the series "
+        "(nld.analysis.peaks; one realisation per case).",
         "Cases:",
     ]
     for name, (_, label, overrides, paper) in CASES.items():
         r = runs[name]
         lines.append(f"- {name}: {label}; overrides {', '.join(overrides)}; paper's max rod angular "
                      f"velocity {_fmt(paper, 'rad/s')}, ours {_fmt(float(om.loc[name, 'nld']))} ± "
-                     f"{_fmt(float(om.loc[name, '± se']), 'rad/s')} (mean of {int(om.loc[name, 'revs'])} "
+                     f"{_fmt(float(om.loc[name, '± 95 %']), 'rad/s')} (mean of {int(om.loc[name, 'revs'])} "
                      f"per-revolution maxima); {r['message']}")
     lines.append(f"- ideal: every joint closed (nld.model.ideal), evaluated at the stored output times; max rod "
                  f"angular velocity {_fmt(ideal_w, 'rad/s')}.")
@@ -880,15 +893,15 @@ def _text_intro(mode_label, settings, summary, runs, period):
     return lines
 
 
-def _trend_se(a, sa, b, sb):
-    """'grows' / 'falls' when b - a exceeds twice the combined standard error, else 'does not
-    change significantly'."""
+def _trend_se(a, ha, b, hb):
+    """'grows' / 'falls' when b - a exceeds the combined 95 % half-width hypot(ha, hb) (ha, hb:
+    the two values' 95 % interval half-widths), else 'does not change significantly'."""
     if not (a == a and b == b):
         return "cannot be compared (no value)"
-    s = math.hypot(sa if sa == sa else 0.0, sb if sb == sb else 0.0)
-    if b - a > 2 * s:
+    s = math.hypot(ha if ha == ha else 0.0, hb if hb == hb else 0.0)
+    if b - a > s:
         return "grows"
-    if a - b > 2 * s:
+    if a - b > s:
         return "falls"
     return "does not change significantly"
 
@@ -929,7 +942,7 @@ def _scene_choices(scene) -> dict:
 def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
     ch = _scene_choices(scene)
     val = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "nld"]].itertuples(index=False)}
-    se = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "± se"]].itertuples(index=False)}
+    se = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "± 95 %"]].itertuples(index=False)}
     smp = {(q, c): float(v) for q, c, v in summary[["quantity", "case", "sampled"]].itertuples(index=False)}
     nrev = int(summary["revs"].min()) if len(summary) else 0
     idl = {q: float(v) for q, v in summary.groupby("quantity")["ideal joints"].first().items()}
@@ -968,9 +981,9 @@ def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
         "rod's angular velocity, the contact forces and the load torque increase with the friction "
         f"coefficient and with the clearance. Here the mass centre stays within {_fmt(dev * 1e6, 'µm')} of "
         f"its ideal-joint position in all cases (bounded by the clearances; the path is "
-        f"{_fmt(size * 1e3, 'mm')} wide), so the trajectory indeed hardly changes. Means ± standard errors "
-        f"of {nrev} per-revolution maxima ('grows'/'falls': the difference exceeds twice the combined "
-        f"standard error). From f = 0 to f = 0.05 and 0.1 the max rod angular velocity "
+        f"{_fmt(size * 1e3, 'mm')} wide), so the trajectory indeed hardly changes. Means ± 95 % intervals "
+        f"of {nrev} per-revolution maxima, one realisation per case ('grows'/'falls': the difference "
+        f"exceeds the combined half-width, the square root of the sum of their squares). From f = 0 to f = 0.05 and 0.1 the max rod angular velocity "
         f"{change(w, 'f=0', 'f=0.05', 'rad/s')}, and {change(w, 'f=0', 'f=0.1', 'rad/s')} (paper: 40 to 90 "
         f"rad/s from f = 0 to 0.05); the peak contact force at A {change('max A.Fn', 'f=0', 'f=0.05', 'kN', 1e-3)}, "
         f"and to f = 0.1 {change('max A.Fn', 'f=0', 'f=0.1', 'kN', 1e-3)}; the peak crank torque "
@@ -981,7 +994,7 @@ def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
         f"crank torque {change('max |driver.torque|', 'r=0.01mm', 'r=0.5mm', 'N m')}. With ideal joints: "
         f"{_fmt(idl[w], 'rad/s')}, {_fmt(idl['max A.Fn'] * 1e-3, 'kN')} at A, "
         f"{_fmt(idl['max |driver.torque|'], 'N m')}.",
-        "Increases reported by the paper and reproduced here (significant at two standard errors): "
+        "Increases reported by the paper and reproduced here (significant at the combined 95 % half-width): "
         + ("; ".join(yes) if yes else "none") + "." + (" Not reproduced: " + "; ".join(no) + "." if no else ""),
         "Sampling. Read off the stored samples instead of located, the mean per-revolution maximum of the "
         f"rod angular velocity is {_fmt(100 * min(samp_low))} to {_fmt(100 * max(samp_low))} % lower "
@@ -1091,10 +1104,12 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
     with rep:
         rep.text_page("What this report repeats", _text_intro(mode_label, settings, summary, runs, period))
         shown = summary.copy()
-        rep.table("Paper vs nld: per-revolution peaks, mean ± standard error", shown,
+        rep.table("Paper vs nld: per-revolution peaks, mean ± 95 % interval", shown,
                   notes=["'nld': mean of the located maxima of the quantity in each of 'revs' steady "
-                         "revolutions; '± se': their standard error (sample standard deviation / √revs, "
-                         "treating the revolutions as independent); 'sampled': the same mean read off the "
+                         "revolutions of one realisation ('realisations'); '± 95 %': half-width of the "
+                         "95 % Student-t interval of the means of batches of 'batch' revolutions, the batch "
+                         "length five integrated autocorrelation times of the series (nld.analysis.peaks, "
+                         "docs/studies.md); 'sampled': the same mean read off the "
                          f"stored samples ({settings['samples_per_rev'] // settings['keep_every']} per "
                          "revolution) instead of the located peaks. 'paper': numbers stated in the text "
                          "of the paper (it gives contact forces and torques only as curves, Fig. 8; it has "
