@@ -238,6 +238,9 @@ def summary_table(tables: dict, ideal: pd.DataFrame, period: float, plotted_revs
 
 
 def per_rev_summary(per_rev: pd.DataFrame) -> pd.DataFrame:
+    """Per case: min, median, max of the per-revolution peaks, and their mean with its 95 %
+    batch-means interval (nld.analysis.peaks.peak_interval: ``<q>_mean``, ``<q>_ci95``)."""
+    from nld.analysis.peaks import peak_interval
     rows = []
     for name, g in per_rev.groupby("case", sort=False):
         r = {"case": name, "revolutions": len(g)}
@@ -245,6 +248,11 @@ def per_rev_summary(per_rev: pd.DataFrame) -> pd.DataFrame:
                          ("peak_abs_torque_Nm", "torque")):
             v = g[col].to_numpy()
             r[f"{lab}_min"], r[f"{lab}_median"], r[f"{lab}_max"] = float(v.min()), float(np.median(v)), float(v.max())
+            if len(v) >= 8:         # peak_interval needs 4 batches of at least 2
+                pi = peak_interval(v)
+                r[f"{lab}_mean"], r[f"{lab}_ci95"] = pi.mean, pi.half_width
+            else:
+                r[f"{lab}_mean"], r[f"{lab}_ci95"] = float(np.mean(v)), float("nan")
         r["onsets_per_rev_mean"] = float(g["contact_onsets"].mean())
         rows.append(r)
     return pd.DataFrame(rows)
@@ -597,17 +605,21 @@ def _report(study, base, period, tables, ideal, per_rev, runs, summary, prs, sim
                               ideal_label="ideal joint reaction |F_B|")
         _fig_peaks(rep, summary, per_rev, summary.set_index("case").loc["ideal"])
         shown = prs.copy()
-        for c in ("Fn_min", "Fn_median", "Fn_max", "ax_min", "ax_median", "ax_max"):
+        for c in ("Fn_min", "Fn_median", "Fn_max", "Fn_mean", "Fn_ci95", "ax_min", "ax_median",
+                  "ax_max", "ax_mean", "ax_ci95"):
             shown[c] = shown[c] * 1e-3
         shown.columns = [c.replace("torque", "M").replace("_", " ").replace("onsets per rev mean",
                                                                               "contact onsets per rev")
                          for c in shown.columns]
         units = {f"{q} {s}": u for q, u in (("Fn", "kN"), ("ax", "km/s²"), ("M", "N m"))
-                 for s in ("min", "median", "max")}
+                 for s in ("min", "median", "max", "mean", "ci95")}
         rep.table("Per-revolution peaks over the statistics run", shown, col_units=units,
                   notes=[f"For each revolution after the transient ({settings['stats_revs']} in all, the "
                          "plotted ones included): peak contact force Fn, peak |slider acceleration| ax, peak "
-                         "|crank moment| M; the minimum, median and maximum of these over the revolutions, and "
+                         "|crank moment| M; the minimum, median and maximum of these over the revolutions, "
+                         "their mean ± ci95, the half-width of its 95 % batch-means interval "
+                         "(nld.analysis.peaks.peak_interval: Student t over batches of about 5 "
+                         "autocorrelation times, docs/studies.md), and "
                          f"the mean number of contact onsets per revolution. Every revolution in {STEM}_per_rev.csv."],
                   float_format=lambda v: f"{v:.4g}")
         rep.table("Run statistics", run_table(runs, RUN_COLUMNS), col_units={"wall time": "s"},
