@@ -57,7 +57,8 @@ def test_bad_orbit_input_is_one_line_exit_2(argv, words, capsys):
     assert words in err and len(err.splitlines()) == 1 and "Traceback" not in err
 
 
-def test_continue_interrupted_keeps_the_finished_branch_points(tmp_path):
+@pytest.mark.parametrize("signame, status", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_continue_interrupted_keeps_the_finished_branch_points(tmp_path, signame, status):
     import re
     import signal
 
@@ -66,8 +67,8 @@ def test_continue_interrupted_keeps_the_finished_branch_points(tmp_path):
     argv = ["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu",
             "--values", "0.1:0.06:41", "--out", str(out), "--progress"]
     rc, _, err, dt, _ = signal_when(argv, lambda e: re.search(r"\| ?[2-9]/41", e) is not None,
-                                    tmp_path, signal.SIGINT)
-    assert rc == 130 and "Traceback" not in err and dt < 10
+                                    tmp_path, getattr(signal, signame))
+    assert rc == status and "Traceback" not in err and dt < 10
     part = pd.read_parquet(out / "branch.partial.parquet")
     assert 2 <= len(part) < 41 and part["converged"].all()
     assert not (out / "branch.parquet").exists()

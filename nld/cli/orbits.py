@@ -96,7 +96,8 @@ def cmd_orbits(args) -> int:
                          "stroboscopic map of a driven crank")
     prog = _newton_progress(args)
     if args.max_period is not None:
-        orbits = find_orbits(system, args.max_period, transient=args.transient, rtol=args.rtol)
+        orbits = find_orbits(system, args.max_period, transient=args.transient, rtol=args.rtol,
+                             progress=_search_progress(args))
     else:
         orbits = [periodic_orbit(system, args.period, transient=args.transient, rtol=args.rtol,
                                  progress=prog)]
@@ -143,6 +144,19 @@ def _newton_progress(args):
     def prog(it, res):
         if sys.stderr.isatty() or getattr(args, "progress", None):
             print(f"  Newton step {it}: residual {res:.3g}", file=sys.stderr, flush=True)
+    return prog
+
+
+def _search_progress(args):
+    """One stderr line per period searched and every 5th seed (a terminal, or --progress)."""
+    import sys
+    if getattr(args, "progress", None) is False:
+        return None
+    shown = sys.stderr.isatty() or getattr(args, "progress", None)
+
+    def prog(period, k, n):
+        if shown and (k == 0 or (k + 1) % 5 == 0 or k + 1 == n):
+            print(f"  period {period}: seed {k + 1} of {n}", file=sys.stderr, flush=True)
     return prog
 
 
