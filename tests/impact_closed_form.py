@@ -2,7 +2,7 @@
 integrators: exact linear segments (matrix exponential plus the harmonic particular solution),
 contact times by Brent's method on the closed-form x(t), the monodromy as the product of the
 segments' exponentials and the textbook saltation matrices S = I + (f+ - f-) n^T / (n^T f-)
-(di Bernardo et al. 2008, eq. 2.41) at x = d, n = (1, 0)."""
+(di Bernardo et al. 2008, sec. 2.5; Leine & Nijmeijer 2004, sec. 7) at x = d, n = (1, 0)."""
 from __future__ import annotations
 
 import math
