@@ -10,6 +10,8 @@ from pathlib import Path
 from nld.errors import InputError, Interrupted
 
 STUDIES_ENV = "NLD_STUDIES_DIR"
+# names that stand for one study although they are a prefix of several (the README's main job)
+ALIASES = {"zhang2013": "zhang2013_excavator"}
 DEFAULT_STUDY_OUT = "nld-out"
 
 
@@ -56,6 +58,8 @@ def find_study(name: str, d: Path | None = None) -> Path:
     exact = d / f"{name}.py"
     if exact.is_file():
         return exact
+    if name in ALIASES and ALIASES[name] in names:
+        return d / f"{ALIASES[name]}.py"
     matches = [n for n in names if n.startswith(name)]
     if len(matches) == 1:
         return d / f"{matches[0]}.py"
