@@ -17,8 +17,12 @@ Outputs in ``out_dir``: ``rhee1996.pdf``; ``rhee1996.parquet`` (the sampled runs
 the eccentricity over the case's clearance, as plotted); ``rhee1996_sweeps.parquet`` (both sweeps and
 their checks, ``case`` = clearance, friction, clearance_check, friction_check first, as
 ``nld.analysis.bifurcation.load_sweep``, with ``B.ex/c``, ``B.ey/c``); ``rhee1996_spectra.parquet``;
-``rhee1996_summary.csv`` (the per-case table printed in the report: its max_Fn is the maximum of
-``B.Fn`` over that case's rows of ``rhee1996.parquet``, its lambda that of the case's exponent).
+``rhee1996_peaks.csv`` (the contact-force maximum of every revolution of each sampled run, located
+from the dense output: :func:`nld.analysis.extrema.revolution_maxima`); ``rhee1996_summary.csv`` (the
+per-case table printed in the report: Fn_rev_mean +- Fn_rev_ci95 is the mean of that case's
+per-revolution maxima with its 95 % batch-means interval, :func:`nld.analysis.peaks.peak_interval`;
+max_Fn the largest of them, a single extreme; rms_Fn and contact_fraction over that case's rows of
+``rhee1996.parquet``; lambda that of the case's exponent).
 
 A case or sweep point is called chaotic only when lambda - uncertainty > 0 over a section of at least
 MIN_SECTION_POINTS points, and a verdict holds only if a run at ``rtol_check`` over ``check_span``
@@ -44,7 +48,7 @@ CITATION = ("Rhee J., Akay A. (1996), \"Dynamic response of a revolute joint wit
             "Mechanism and Machine Theory 31(1):121-134")
 
 FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec_revs=20,
-            samples_per_rev=720, sweep_transient=100, sweep_revs=100, sweep_lyap=100,
+            samples_per_rev=720, peak_detect=20, sweep_transient=100, sweep_revs=100, sweep_lyap=100,
             clearances=[0.02e-3, 0.03e-3, 0.05e-3, 0.075e-3, 0.1e-3, 0.15e-3, 0.2e-3, 0.25e-3,
                         0.3e-3, 0.4e-3, 0.5e-3],
             frictions=[0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.08, 0.1, 0.15, 0.2, 0.3],
@@ -52,7 +56,7 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.0, max_period=2,
                        transient=50, values=[0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.1]))
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
-             samples_per_rev=360, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
+             samples_per_rev=360, peak_detect=20, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
              rtol_check=1e-8, check_span=2, workers=1,
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
@@ -71,6 +75,7 @@ CASES = {
 COLORS = {"c=0.05mm": "tab:green", "c=0.25mm": "tab:blue", "c=0.5mm": "tab:purple",
           "mu=0": "tab:red", "mu=0.1": "tab:orange", "mu=0.3": "tab:brown"}
 N_PEAKS = 3
+PEAK_LEVEL = 0.95          # level of the per-revolution peak intervals (nld.analysis.peaks.peak_interval)
 PERIOD_TOL = 1e-6          # section period: points repeat to PERIOD_TOL x clearance
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
 # points the section cannot tell an attractor from a transient, whatever the exponent says
@@ -126,9 +131,10 @@ def sweep_estimator_settings(df: pd.DataFrame, period: float) -> dict:
 
 def run_case(name, st):
     """Section, exponent and the continued sampled run of one case."""
+    from nld.analysis.extrema import revolution_maxima
     from nld.analysis.lyapunov import lyapunov_tangent
+    from nld.analysis.peaks import peak_interval
     from nld.analysis.poincare import period_of, stroboscopic
-    from nld.run.simulate import simulate
     from nld.analysis.spectrum import peaks, table_spectrum
     from nld.systems.core import SceneSystem
     _, ov, c, mu = CASES[name]
@@ -142,24 +148,33 @@ def run_case(name, st):
     system.y0 = np.array(sec.y_final, float)
     system.z0 = np.array(sec.z_final, float)
     lyap = lyapunov_tangent(system, transient=0.0, total=st["lyap_revs"] * sec.period, rtol=st["rtol"])
-    # the same trajectory continued from the end of the section (t = 0 is a multiple of the period)
-    run = simulate(SCENE, revs=st["spec_revs"], samples_per_rev=st["samples_per_rev"], rtol=st["rtol"],
-                   overrides=ov, y0=sec.y_final, z0=sec.z_final)
-    tab = run.table
+    # the same trajectory continued from the end of the section (t = 0 is a multiple of the period),
+    # its contact-force maximum located in every revolution from the dense output
+    # (nld.analysis.extrema, as zhang2013); every peak_detect-th detection sample is stored
+    run = revolution_maxima(SCENE, ["B.Fn"], revs=st["spec_revs"], rtol=st["rtol"], overrides=ov,
+                            samples_per_rev=st["samples_per_rev"] * st["peak_detect"],
+                            keep_every=st["peak_detect"], absolute=False, y0=sec.y_final, z0=sec.z_final)
+    tab = run.table.drop(columns="steady")
     spec = table_spectrum(tab, "B.Fn")
     pk = peaks(spec, n=N_PEAKS)
     fn = tab["B.Fn"].to_numpy()
+    fn_rev = run.maxima["peak"].to_numpy(float)
+    iv = peak_interval(fn_rev, PEAK_LEVEL) if fn_rev.size >= 2 and np.all(np.isfinite(fn_rev)) else None
     n_sec = int(len(sec.table))
     row = {"case": name, "group": CASES[name][0], "clearance_mm": c * 1e3, "mu": mu,
            "lambda_per_rev": lyap.per_revolution, "lambda_unc_per_rev": lyap.uncertainty_per_revolution,
            "verdict_main": verdict(lyap.per_revolution, lyap.uncertainty_per_revolution, n_sec),
            "section_points": n_sec, "section_period": int(per),
-           "max_Fn": float(np.max(fn)), "rms_Fn": float(np.sqrt(np.mean(fn ** 2))),
+           "Fn_rev_mean": float(np.mean(fn_rev)) if fn_rev.size else float("nan"),
+           "Fn_rev_ci95": iv.half_width if iv else float("nan"),
+           "max_Fn": float(np.max(fn_rev)) if fn_rev.size else float("nan"),
+           "rms_Fn": float(np.sqrt(np.mean(fn ** 2))),
            "contact_fraction": float(np.mean(fn > 0)),
            "peak_orders": ", ".join(f"{o:.2f}" for o in pk["order"]),
            "status": "ok" if (sec.success and run.success) else f"{sec.message} / {run.message}",
            "wall_s": time.perf_counter() - t0}
-    return dict(section=sec, lyap=lyap, table=tab, spectrum=spec, peaks=pk, row=row)
+    return dict(section=sec, lyap=lyap, table=tab, spectrum=spec, peaks=pk, row=row,
+                maxima=run.maxima.assign(case=name)[["case", *run.maxima.columns]])
 
 
 def check_case(name, y, z, st, period):
@@ -455,6 +470,9 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
     def lam(n):
         return f"{_f(s.loc[n, 'lambda_per_rev'])} ± {_f(s.loc[n, 'lambda_unc_per_rev'], 2)}"
 
+    def fn_rev(n):
+        return f"{_f(s.loc[n, 'Fn_rev_mean'])} ± {_f(s.loc[n, 'Fn_rev_ci95'], 2)}"
+
     intro = [
         f"Source: {CITATION}. What it reported (as summarised in shared/references.md, tagged [U], and by "
         "the seed paper, Zhang et al. 2013: 'the numerical results showed that nonlinearity depended on both "
@@ -474,7 +492,11 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
         f"{st['transient_revs']} crank revolutions (discarded), then {st['section_revs']} stroboscopic "
         f"section points; λ1 (tangent dynamics with saltation matrices at every contact event, scaled norm, 2 revolutions of alignment) over {st['lyap_revs']} "
         f"revolutions from the end of the section; then {st['spec_revs']} revolutions sampled "
-        f"{st['samples_per_rev']} times per revolution for the force peaks and the spectrum. Sweeps: "
+        f"{st['samples_per_rev']} times per revolution for the spectrum, the contact-force maximum of "
+        f"each located from the dense output ({st['samples_per_rev'] * st['peak_detect']} detection "
+        "samples per revolution, the largest refined; nld.analysis.extrema) and reported as the mean "
+        "of these per-revolution peaks ± its 95 % batch-means interval (nld.analysis.peaks), beside "
+        "the largest of them (a single extreme). Sweeps: "
         f"{len(st['clearances'])} clearances and {len(st['frictions'])} friction coefficients, "
         f"{st['sweep_transient']} + {st['sweep_revs']} revolutions each, λ1 over {st['sweep_lyap']}. "
         f"rtol {st['rtol']:g} everywhere (absolute tolerances scaled by the clearance). A case or a sweep "
@@ -506,8 +528,10 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
     found = [
         "Cases (section, exponent, spectrum; table on the next page):",
         f"- clearance at μ = 0.01: λ1 = {lam('c=0.05mm')} (0.05 mm), {lam('c=0.25mm')} (0.25 mm), "
-        f"{lam('c=0.5mm')} (0.5 mm) per revolution; peak contact force {_f(s.loc['c=0.05mm', 'max_Fn'])}, "
-        f"{_f(s.loc['c=0.25mm', 'max_Fn'])}, {_f(s.loc['c=0.5mm', 'max_Fn'])} N.",
+        f"{lam('c=0.5mm')} (0.5 mm) per revolution; peak contact force per revolution "
+        + ", ".join(fn_rev(n) for n in ("c=0.05mm", "c=0.25mm", "c=0.5mm")) + " N (mean ± 95 % interval "
+        f"over {st['spec_revs']} revolutions; largest single peak {_f(s.loc['c=0.05mm', 'max_Fn'])}, "
+        f"{_f(s.loc['c=0.25mm', 'max_Fn'])}, {_f(s.loc['c=0.5mm', 'max_Fn'])} N).",
         f"- friction at c = 0.25 mm: λ1 = {lam('mu=0')} (μ = 0), {lam('c=0.25mm')} (0.01), {lam('mu=0.1')} "
         f"(0.1), {lam('mu=0.3')} (0.3) per revolution; section periods {int(s.loc['mu=0', 'section_period'])}, "
         f"{int(s.loc['c=0.25mm', 'section_period'])}, {int(s.loc['mu=0.1', 'section_period'])}, "
@@ -553,7 +577,9 @@ def _discussion(summary, pts_c, pts_f):
              "(see the sweep table); at small clearances the journal stays in contact longer "
              f"(contact fraction {_f(s.loc['c=0.05mm', 'contact_fraction'], 2)} at 0.05 mm vs "
              f"{_f(s.loc['c=0.5mm', 'contact_fraction'], 2)} at 0.5 mm), and the impact forces grow with "
-             f"the clearance ({_f(s.loc['c=0.05mm', 'max_Fn'])} -> {_f(s.loc['c=0.5mm', 'max_Fn'])} N). "
+             f"the clearance (per-revolution peak {_f(s.loc['c=0.05mm', 'Fn_rev_mean'])} ± "
+             f"{_f(s.loc['c=0.05mm', 'Fn_rev_ci95'], 2)} -> {_f(s.loc['c=0.5mm', 'Fn_rev_mean'])} ± "
+             f"{_f(s.loc['c=0.5mm', 'Fn_rev_ci95'], 2)} N). "
              if cl_incr else
              "The exponent does NOT grow monotonically with the clearance here: at this light load "
              "(joint reaction 0.5-19 N with ideal joints) the journal rattles chaotically at every "
@@ -568,8 +594,8 @@ def _discussion(summary, pts_c, pts_f):
         "a chaotic regime are only meaningful statistically (docs/analysis.md).",
         "Spectra: the contact force of a regular case concentrates on crank harmonics; chaotic cases "
         "show impact trains with a broadband floor. The three largest peaks (orders) per case are in the "
-        "summary table; the peak force is the maximum over the samples, so impacts between samples "
-        "can be higher.",
+        "summary table; the peak forces are located from the integrator's dense output in every "
+        "revolution (not read off the output samples, which can fall between the impacts' maxima).",
     ]
     return lines
 
@@ -578,6 +604,7 @@ def _discussion(summary, pts_c, pts_f):
 
 
 def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
+    """Run the study (module docstring); write the PDF and the data files; return the PDF."""
     from nld.model.scene import load_scene
     from nld.run.simulate import crank_period
     from nld.study import Study
@@ -586,15 +613,36 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     st["workers"] = study.workers(st["workers"])
     base = load_scene(SCENE)
     period = crank_period(base)
+    res = run_cases(study, st, period)
+    sweeps, pts_c, pts_f, walls = run_all_sweeps(study, st, period, base.joints["B"].clearance)
+    add_sweep_verdicts(res, pts_c, pts_f)
+    summary = pd.DataFrame([res[n]["row"] for n in CASES])
+    route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
+    wall = study.elapsed()
+    _provenance(study, base, st, res, sweeps, pts_c, pts_f, summary, period, walls, wall)
+    _save(study, base, res, sweeps, summary)
+    save_route(study, route)
+    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route)
+    return study.pdf
+
+
+def run_cases(study, st, period) -> dict:
+    """The six cases (run_case) and their verdict checks (check_case): {name: case result}."""
     study.stage("cases")
     res = dict(zip(CASES, study.map(run_case, [(n, st) for n in CASES], st["workers"])))
     study.stage("case checks")
     checks = study.map(check_case, [(n, res[n]["section"].y_final, res[n]["section"].z_final, st, period)
                                     for n in CASES], st["workers"])
     add_case_checks(res, checks, st)
+    return res
+
+
+def run_all_sweeps(study, st, period, c_f):
+    """Both sweeps, their points and verdict checks. Returns (sweeps with the check sweeps,
+    clearance points, friction points, (sweep wall, check wall) in s); c_f: the scene's
+    clearance (m), fixed in the friction sweep."""
     study.stage("sweeps")
     sweeps, sweep_wall = run_sweeps(st)
-    c_f = base.joints["B"].clearance
     pts_c = sweep_points(sweeps["clearance"], period)
     pts_f = sweep_points(sweeps["friction"], period, clearance=c_f)
     study.stage("sweep checks")
@@ -602,14 +650,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     pts_c = add_sweep_checks(pts_c, chk["clearance"], period)
     pts_f = add_sweep_checks(pts_f, chk["friction"], period, clearance=c_f)
     sweeps.update({f"{k}_check": v for k, v in chk.items() if v is not None})
-    add_sweep_verdicts(res, pts_c, pts_f)
-    summary = pd.DataFrame([res[n]["row"] for n in CASES])
-    route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
-    wall = study.elapsed()
+    return sweeps, pts_c, pts_f, (sweep_wall, check_wall)
+
+
+def _provenance(study, base, st, res, sweeps, pts_c, pts_f, summary, period, walls, wall):
     study.provenance(scene=base, integrator="dopri5", rtol=st["rtol"], source=CITATION, settings=st,
                      cases={n: {"overrides": CASES[n][1]} for n in CASES},
-                     summary=summary.to_dict(orient="records"), sweep_wall_s=sweep_wall, compute_wall_s=wall,
-                     sweep_check_wall_s=check_wall, min_section_points=MIN_SECTION_POINTS,
+                     summary=summary.to_dict(orient="records"), sweep_wall_s=walls[0], compute_wall_s=wall,
+                     sweep_check_wall_s=walls[1], min_section_points=MIN_SECTION_POINTS,
                      verdict_check=check_text(st),
                      case_estimator={n: estimator_line(res[n]["lyap"].settings, period) for n in CASES},
                      case_check_estimator={n: estimator_line(res[n]["check_settings"], period) for n in CASES},
@@ -617,10 +665,6 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
                                    "friction": pts_f.to_dict(orient="records")},
                      sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
                                       for k, v in sweeps.items()})
-    _save(study, base, res, sweeps, summary)
-    save_route(study, route)
-    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route)
-    return study.pdf
 
 
 def _save(study, base, res, sweeps, summary):
@@ -631,6 +675,7 @@ def _save(study, base, res, sweeps, summary):
     study.save("_sweeps.parquet", {k: with_ec(v, None if k.startswith("clearance") else c_f).reset_index(drop=True)
                                    for k, v in sweeps.items()})
     study.save("_spectra.parquet", {n: pd.DataFrame(res[n]["spectrum"]) for n in CASES})
+    study.save("_peaks.csv", pd.concat([res[n]["maxima"] for n in CASES], ignore_index=True))
     study.save("_summary.csv", summary)
 
 
@@ -643,7 +688,8 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
                                   "lambda_check_unc": "± check", "verdict_check": "verdict 2",
                                   "verdict_sweep": "sweep",
                                   "section_period": "period", "section_points": "points",
-                                  "contact_fraction": "in contact",
+                                  "contact_fraction": "in contact", "Fn_rev_mean": "Fn/rev",
+                                  "Fn_rev_ci95": "± 95 %", "max_Fn": "Fn extreme",
                                   "peak_orders": "peak orders", "wall_s": "wall"})
     settings = {"Mode": mode_label, "rtol": st["rtol"],
                 "Cases": f"{st['transient_revs']} transient + {st['section_revs']} section revs, λ1 over "
@@ -660,7 +706,8 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
         rep.text_page("What we found", found)
         rep.table("Cases: exponent, section period, contact force, spectral peaks", shown,
                   col_units={"c": "mm", "λ1": "1/rev", "± unc": "1/rev", "λ1 check": "1/rev",
-                             "± check": "1/rev", "max_Fn": "N", "rms_Fn": "N", "wall": "s"},
+                             "± check": "1/rev", "Fn/rev": "N", "± 95 %": "N", "Fn extreme": "N",
+                             "rms_Fn": "N", "wall": "s"},
                   notes=["λ1 ± unc: largest Lyapunov exponent per crank revolution (lambda_per_rev, "
                          "lambda_unc_per_rev in the CSV); verdict 1 'chaotic' if λ1 - unc > 0 and the section "
                          f"has at least {MIN_SECTION_POINTS} points ('λ1 > 0, short' below that), 'regular' if "
@@ -670,8 +717,13 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
                          "table). verdict: verdict 1 where verdict 2 and the sweep agree, else 'not "
                          "established'. points: section "
                          "points. period: period of the "
-                         "Poincaré section (points repeat to 1e-6 of the clearance; 0 = none up to 16). max_Fn, rms_Fn, in contact (fraction of samples with B.Fn > 0): over "
-                         f"the sampled run stored in {STEM}.parquet (B.Fn). peak_orders: crank orders of "
+                         "Poincaré section (points repeat to 1e-6 of the clearance; 0 = none up to 16). "
+                         f"Fn/rev ± 95 %: mean of the contact-force maxima of the {st['spec_revs']} "
+                         "revolutions of the sampled run (each located from the dense output, "
+                         f"{STEM}_peaks.csv) with its 95 % batch-means interval (nld.analysis.peaks."
+                         "peak_interval; Fn_rev_mean, Fn_rev_ci95 in the CSV); Fn extreme: the largest of "
+                         "these maxima, a single extreme (max_Fn). rms_Fn, in contact (fraction of samples "
+                         f"with B.Fn > 0): over the sampled run stored in {STEM}.parquet (B.Fn). peak_orders: crank orders of "
                          "the three largest peaks of the B.Fn spectrum."],
                   float_format=lambda v: f"{v:.4g}")
         sw_table = pd.concat([pts_c.assign(sweep="clearance", value=pts_c["value"] * 1e3),

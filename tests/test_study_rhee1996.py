@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nld.analysis.peaks import peak_interval
 from nld.output.io import load_table
 from nld.output.report import Report, source_date_epoch
 from study_harness import count_pages, run_quick_recorded
@@ -35,7 +36,7 @@ def test_quick_writes_pdf_and_data(quick_run):
     assert count_pages(pdf) == title_pages + 13
     for suffix in ("", "_sections", "_sweeps", "_spectra"):
         assert (out / f"rhee1996{suffix}.parquet").is_file()
-    assert (out / "rhee1996_summary.csv").is_file()
+    assert (out / "rhee1996_summary.csv").is_file() and (out / "rhee1996_peaks.csv").is_file()
 
 
 def test_summary_matches_stored_series(quick_run):
@@ -45,10 +46,24 @@ def test_summary_matches_stored_series(quick_run):
     sections, _ = load_table(out / "rhee1996_sections.parquet")
     assert prov["mode"] == "quick" and prov["scene"] == "four_bar"
     assert set(summary["case"]) == set(study.CASES) == set(runs["case"])
+    peaks, _ = load_table(out / "rhee1996_peaks.csv")
     for _, row in summary.iterrows():
         fn = runs.loc[runs["case"] == row["case"], "B.Fn"].to_numpy()
-        assert row["max_Fn"] == pytest.approx(fn.max(), rel=1e-12)
         assert row["rms_Fn"] == pytest.approx(np.sqrt(np.mean(fn ** 2)), rel=1e-9)
+        # per-revolution peaks, located on the stored run: never below its samples of that revolution
+        pk = peaks[peaks["case"] == row["case"]].sort_values("rev")
+        assert list(pk["rev"]) == list(range(study.QUICK["spec_revs"]))
+        t = runs.loc[runs["case"] == row["case"], "t"].to_numpy()
+        period = pk["t_start"].iloc[1] - pk["t_start"].iloc[0]
+        for _, p in pk.iterrows():
+            sel = (t >= p["t_start"] - 1e-12) & (t <= p["t_start"] + period * (1 + 1e-9))
+            assert p["sampled"] == pytest.approx(fn[sel].max(), rel=1e-12)
+            assert p["peak"] >= p["detected"] >= p["sampled"]
+        # mean +- 95 % interval of those peaks (nld.analysis.peaks), the extreme beside it
+        iv = peak_interval(pk["peak"].to_numpy())
+        assert row["Fn_rev_mean"] == pytest.approx(iv.mean, rel=1e-12) and 0 < row["Fn_rev_ci95"]
+        assert row["Fn_rev_ci95"] == pytest.approx(iv.half_width, rel=1e-12)
+        assert row["max_Fn"] == pk["peak"].max() >= fn.max() * (1 - 1e-12) and row["max_Fn"] > row["Fn_rev_mean"]
         assert row["status"] == "ok"
         assert (sections["case"] == row["case"]).sum() == study.QUICK["section_revs"]
         assert np.isfinite(row["lambda_per_rev"]) and row["lambda_unc_per_rev"] >= 0

@@ -126,7 +126,7 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
                       refine_top: int = 4, peak_rtol: float = 1e-6, dense: int = 32,
                       min_width: float = 1e-12, max_iter: int = 40, absolute=True, overrides=None,
                       max_steps: int = 200_000_000, max_steps_per_rev: int | None = None, kernel=None,
-                      progress=None, y0=None) -> RevolutionRun:
+                      progress=None, y0=None, z0=None) -> RevolutionRun:
     """Run ``transient_revs + revs`` crank revolutions from the assembled state and locate the
     maximum of each of ``columns`` in each of the last ``revs`` revolutions (module docstring).
 
@@ -138,7 +138,10 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     e.g. by mode chatter, stops there with the integrator's message instead of running on).
     y0: start from this state (independent coordinates then speeds, the kernel's order; e.g. a
     seeded perturbation of the assembled state for an independent realisation,
-    nld.analysis.peaks) instead of the assembled one; the modes are set from it.
+    nld.analysis.peaks) instead of the assembled one; the modes are set from it. z0: the discrete
+    state to go on with (e.g. the ``z_final`` of a run ended at a whole revolution, with y0 its
+    ``y_final``: contact modes and onset memory continue, as ``nld.run.simulate(y0=, z0=)``);
+    given, the modes are not reset from y0.
     maxima columns: ``rev`` (0 = first revolution after the transient), ``column``, ``t_start``
     (s), ``sampled`` (max over the kept samples of the revolution), ``detected`` (max over the
     detection samples), ``peak`` (refined), ``t_peak`` (s), ``iterations`` (zoom levels, summed
@@ -180,8 +183,15 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
             raise InputError(f"y0: must be {y.size} finite numbers (independent coordinates then "
                              f"speeds of scene {scene.name!r}), got shape {y0.shape}")
         y = y0.copy()
-    z = np.array(z, dtype=float)
-    kern.init_modes(0.0, y, p, z)
+    if z0 is not None:
+        z0 = np.asarray(z0, dtype=float)
+        if z0.shape != np.shape(z) or not np.all(np.isfinite(z0)):
+            raise InputError(f"z0: must be {np.size(z)} finite numbers (the discrete state of scene "
+                             f"{scene.name!r}), got shape {z0.shape}")
+        z = z0.copy()
+    else:
+        z = np.array(z, dtype=float)
+        kern.init_modes(0.0, y, p, z)
     atol = tolerances(kern, q_init, rtol)
     hmax = period / 20.0
     solve, observe_all = kern.module.solve, kern.module.observe_all
