@@ -81,3 +81,16 @@ def test_per_revolution_peaks(quick_run):
         rows = df[df["case"] == name]
         assert g.loc[g["plotted"], "peak_abs_slider_ax_m_s2"].max() == pytest.approx(
             rows["slider.ax"].abs().max(), rel=1e-12)
+    # beside each window peak (a single extreme) the summary gives the per-revolution mean with its
+    # 95 % batch-means interval (nld.analysis.peaks.peak_interval of the per-revolution peaks)
+    from nld.analysis.peaks import peak_interval
+    s, _ = load_table(out / "flores2004_summary.csv")
+    s = s.set_index("case")
+    for name, g in pr.groupby("case"):
+        for col in ("peak_Fn_N", "peak_abs_slider_ax_m_s2", "peak_abs_torque_Nm"):
+            v = g.sort_values("revolution")[col].to_numpy()
+            iv = peak_interval(v)
+            assert s.loc[name, f"{col}_rev_mean"] == pytest.approx(v.mean(), rel=1e-12)
+            assert s.loc[name, f"{col}_rev_ci95"] == pytest.approx(iv.half_width, rel=1e-12) and iv.half_width > 0
+            assert v.min() < s.loc[name, f"{col}_rev_mean"] < v.max() and s.loc[name, col] <= v.max()
+    assert np.isnan(s.loc["ideal", "peak_Fn_N_rev_mean"])
