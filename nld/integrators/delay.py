@@ -706,28 +706,39 @@ def sampled_history(t, Y, law: DelayLaw, dY=None) -> History:
     return History(t[:-1].copy(), h.copy(), t[1:].copy(), cont, chan)
 
 
-def _eval_pieces(coef, a, hscale, times, idx):
+def _dbasis(th):
+    th = np.asarray(th, dtype=float)
+    return np.stack([np.zeros_like(th), np.ones_like(th), 1 - 2 * th, 2 * th - 3 * th * th,
+                     2 * th * (1 - th) * (1 - 2 * th)], axis=-1)
+
+
+def _eval_pieces(coef, a, hscale, times, idx, derivative=False):
     th = (times - a[idx]) / hscale[idx]
-    B = _basis(th)                                    # (k, 5)
-    return np.einsum("kr,krj->kj", B, coef[idx])
+    if derivative:
+        return np.einsum("kr,krj->kj", _dbasis(th), coef[idx]) / hscale[idx][:, None]
+    return np.einsum("kr,krj->kj", _basis(th), coef[idx])
 
 
-def history_eval(hist: History, times):
-    """(states (k, n), channels (k, m)) of a history at the given times (clamped to its span)."""
+def history_eval(hist: History, times, derivative: bool = False):
+    """(states (k, n), channels (k, m)) of a history at the given times (clamped to its span);
+    with ``derivative`` their time derivatives instead (the pieces' own, one-sided at a piece's
+    start)."""
     times = np.atleast_1d(np.asarray(times, dtype=float))
     idx = np.clip(np.searchsorted(hist.t0, times, side="right") - 1, 0, hist.t0.size - 1)
     x = np.clip(times, hist.t0[idx], hist.t1[idx])
-    Yv = _eval_pieces(hist.cont, hist.t0, hist.h, x, idx)
+    Yv = _eval_pieces(hist.cont, hist.t0, hist.h, x, idx, derivative)
     L = hist.t1 - hist.t0
-    Cv = _eval_pieces(hist.chan, hist.t0, np.where(L > 0, L, 1.0), x, idx)
+    Cv = _eval_pieces(hist.chan, hist.t0, np.where(L > 0, L, 1.0), x, idx, derivative)
     return Yv, Cv
 
 
-def combine_histories(ref: History, other: History, alpha: float, t_from: float) -> History:
-    """ref + alpha (other - ref) on [t_from, end] as pieces on the union of both meshes (exact up
-    to round-off: on each union interval both are quartics, written in the same form). Used to
-    renormalise a perturbed copy's whole history segment (the state of a DDE is the function on
-    [t - tau, t]; Farmer 1982)."""
+def combine_histories(ref: History, other: History, alpha: float, t_from: float,
+                      shift: float = 0.0) -> History:
+    """ref + alpha (other - ref - shift ref') on [t_from, end] as pieces on the union of both
+    meshes (exact up to round-off: on each union interval both are quartics, written in the same
+    form; ref' is the derivative of ref's pieces, ``shift`` removes a time-shift component).
+    Used to renormalise a perturbed copy's whole history segment (the state of a DDE is the
+    function on [t - tau, t]; Farmer 1982)."""
     end = min(ref.t1[-1], other.t1[-1])
     cuts = np.union1d(np.concatenate([ref.t0, ref.t1[-1:]]),
                       np.concatenate([other.t0, other.t1[-1:]]))
@@ -740,8 +751,14 @@ def combine_histories(ref: History, other: History, alpha: float, t_from: float)
     flat = tt.ravel()
     Yr, Cr = history_eval(ref, flat)
     Yo, Co = history_eval(other, flat)
-    Yc = (Yr + alpha * (Yo - Yr)).reshape(a.size, 5, -1)
-    Cc = (Cr + alpha * (Co - Cr)).reshape(a.size, 5, -1)
+    Yd = Yo - Yr
+    Cd = Co - Cr
+    if shift != 0.0:
+        dY, dC = history_eval(ref, flat, derivative=True)
+        Yd -= shift * dY
+        Cd -= shift * dC
+    Yc = (Yr + alpha * Yd).reshape(a.size, 5, -1)
+    Cc = (Cr + alpha * Cd).reshape(a.size, 5, -1)
     cont = np.ascontiguousarray(np.einsum("rq,kqj->krj", _VINV, Yc))
     chan = np.ascontiguousarray(np.einsum("rq,kqj->krj", _VINV, Cc))
     return History(a.copy(), (b - a).copy(), b.copy(), cont, chan)
