@@ -780,25 +780,17 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     revolutions at rtol 1e-10; showcase states 100 + 300 revolutions, λ1 over 200 at rtol 1e-10.
     quick: 3 + 2 + 2 + 2 points, 10 + 12 revolutions at rtol 1e-7 (λ1 at 1e-10). smoke: fewer still.
     """
-    from nld.model.scene import load_scene
     from nld.study import Study
     study = Study(globals(), quick, out_dir, smoke=smoke)
     st = study.settings
     st["workers"] = study.workers(st["workers"])
-    base = load_scene(SCENE)
-    if abs(base.joints["B"].clearance - C0) > 1e-12:
-        raise RuntimeError(f"scene {SCENE}: clearance at B {base.joints['B'].clearance!r} m, the study "
-                           f"assumes C0 = {C0!r} m")
+    base = load_base()
     sweeps, walls = run_sweeps(st)
-    points = {name: sweep_points(name, df) for name, df in sweeps.items()}
-    t_ck = time.perf_counter()
-    points = check_points(st, points, sweeps)
-    walls["verdict check"] = time.perf_counter() - t_ck
+    points = _timed(walls, "verdict check", check_points, st,
+                    {name: sweep_points(name, df) for name, df in sweeps.items()}, sweeps)
     summary = summary_table(points)
     states = showcase_states(points, st, walls)
-    t_tc = time.perf_counter()
-    tolcheck = tolerance_check(points, st)
-    walls["tolerance check"] = time.perf_counter() - t_tc
+    tolcheck = _timed(walls, "tolerance check", tolerance_check, points, st)
     route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
     walls["route to chaos"] = route["wall_s"]
     total_wall = study.elapsed()
@@ -807,6 +799,24 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     save_route(study, route)
     _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route)
     return study.pdf
+
+
+def load_base():
+    """The scene, checked to have the clearance C0 the study assumes."""
+    from nld.model.scene import load_scene
+    base = load_scene(SCENE)
+    if abs(base.joints["B"].clearance - C0) > 1e-12:
+        raise RuntimeError(f"scene {SCENE}: clearance at B {base.joints['B'].clearance!r} m, the study "
+                           f"assumes C0 = {C0!r} m")
+    return base
+
+
+def _timed(walls: dict, key: str, fn, *args):
+    """fn(*args), its wall time (s) put into walls[key]."""
+    t0 = time.perf_counter()
+    out = fn(*args)
+    walls[key] = time.perf_counter() - t0
+    return out
 
 
 def showcase_states(points: dict, st: dict, walls: dict) -> dict:

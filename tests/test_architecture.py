@@ -156,3 +156,18 @@ def test_packages_follow_the_pipeline_layers(graph):
             if pd_ != pm and layer_of(pd_) > layer_of(pm):
                 bad.append(f"{m} (layer {layer_of(pm)}) imports {d} (layer {layer_of(pd_)})")
     assert bad == []
+
+
+MAIN_MAX_LINES = 30     # the study scaffold's intent (docs/studies.md): main() reads as the study's plan
+
+
+def test_every_study_main_within_30_lines():
+    """Each studies/*.py main() is at most MAIN_MAX_LINES lines, def line and docstring included
+    (issue 25: the long blocks go into named functions)."""
+    long = {}
+    for path in sorted((NLD.parent / "studies").glob("*.py")):
+        for node in ast.parse(path.read_text(), str(path)).body:
+            if isinstance(node, ast.FunctionDef) and node.name == "main":
+                if node.end_lineno - node.lineno + 1 > MAIN_MAX_LINES:
+                    long[path.name] = node.end_lineno - node.lineno + 1
+    assert not long, f"main() longer than {MAIN_MAX_LINES} lines: {long}"
