@@ -432,3 +432,16 @@ def test_mu_s_equal_to_mu_is_accepted_on_any_law():
     sc = nld.load_scene("excavator", {"joints.A.friction.law": "ambrosio", "joints.A.friction.mu": 0.2,
                                       "joints.A.friction.mu_s": 0.2})
     assert sc.joints["A"].friction.law == "ambrosio" and sc.joints["A"].friction.mu_s == 0.2
+
+
+def test_an_escaping_ode_is_named_as_such_not_as_stiff_contact():
+    """x'' = x^3 (a Duffing oscillator with a softening cubic and nothing else) from x = 2 blows up
+    in finite time: the failure says the solution grows without bound (|y| and t), with no contact
+    guess for a system without contacts (issue 25; a built-in rhs: nothing to compile)."""
+    from nld.errors import SolveError
+    from nld.systems.core import advance, duffing
+
+    s = duffing(delta=0.0, alpha=0.0, beta=-1.0, gamma=0.0, y0=(2.0, 0.0))
+    with pytest.raises(SolveError, match=r"grows without bound \(\|y\| = \d.*e\+\d+ at t = 0\.") as e:
+        advance(s, s.y0, s.z0, 0.0, 5.0, 1e-8)
+    assert "contact" not in str(e.value)

@@ -134,8 +134,14 @@ def solve_method(kernel, method, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
                        hmax=hmax, max_steps=max_steps, max_log=max_log, land=land)
 
 
-def method_status_message(method: str, status, t_reached, stats) -> str:
-    """One-line description of a result of any method (dopri5's wording, method-aware hints)."""
+def method_status_message(method: str, status, t_reached, stats, *, contacts: bool = True,
+                          escape=None) -> str:
+    """One-line description of a result of any method (dopri5's wording, method-aware hints).
+
+    contacts: the system has contact (or other) events; False drops the "stiff contact" guess
+    from a step-size underflow. escape: (|y|, t) where the solution was last seen growing without
+    bound (nld.systems.core.escape_probe); given, a step-size underflow or a non-finite state is
+    reported as that escape, not as a tolerance or stiffness problem."""
     st = [int(v) for v in stats] + [0] * max(0, 7 - len(stats))
     t = float(t_reached)
     status = int(status)
@@ -153,9 +159,16 @@ def method_status_message(method: str, status, t_reached, stats) -> str:
         what = "rhs evaluation budget (max_steps)" if method.startswith("scipy:") else "max_steps"
         return (f"{method}: {what} exceeded at t = {t:.9g} s after {st[0]} steps: raise max_steps, "
                 f"loosen {hint}")
+    if escape is not None and status in (STEP_UNDERFLOW, NON_FINITE):
+        norm, t_seen = escape
+        what = "step size underflow" if status == STEP_UNDERFLOW else "non-finite value (NaN/inf)"
+        return (f"{method}: {what} at t = {t:.9g} s: the solution grows without bound (|y| = "
+                f"{norm:.3g} at t = {t_seen:.9g} s; an escape to infinity or a finite-time blow-up, "
+                f"not a tolerance problem: check the model, its parameters and the initial state)")
     if status == STEP_UNDERFLOW:
+        guess = "stiff contact or a singularity?" if contacts else "a singularity or a stiff system?"
         return (f"{method}: step size underflow at t = {t:.9g} s: the tolerance cannot be met "
-                f"(stiff contact or a singularity? loosen {hint})")
+                f"({guess} loosen {hint})")
     if status == NON_FINITE:
         return (f"{method}: non-finite value (NaN/inf) in the solution at t = {t:.9g} s: the state "
                 f"diverged (check parameters and initial conditions, or loosen {hint})")

@@ -341,6 +341,54 @@ def period_shift(system, t: float) -> float:
     return math.floor((t - system.t0) / system.period) * system.period
 
 
+ESCAPE_GROWTH = 1e6     # |y| this many times max(1, |y0|) before a failure: an escape, not stiffness
+
+
+def escape_probe(system, t0: float, y, z, t_fail: float, rtol: float, atol=None, hmax=None,
+                 y_fail=None):
+    """(|y|, t) where a failed integration from (t0, y, z) was last seen growing without bound,
+    else None. |y| is the Euclidean norm of the state over its scales. y_fail: the state at
+    t_fail if the integrator returned it; otherwise the run is repeated (a failure path only)
+    with outputs at t0 + (t_fail - t0)(1 - 2^-k), k = 1..52, and the last one reached is used.
+    An escape: that norm is at least ESCAPE_GROWTH x max(1, |y(t0)|)."""
+    sc = np.asarray(getattr(system, "scales", np.ones(len(y))), dtype=float)
+    base = max(1.0, float(np.linalg.norm(np.asarray(y, float) / sc)))
+    t_fail = float(t_fail)
+    if y_fail is not None and np.all(np.isfinite(y_fail)):
+        norm, t_seen = float(np.linalg.norm(np.asarray(y_fail, float) / sc)), t_fail
+    else:
+        if not t_fail > t0:
+            return None
+        te = np.unique(t0 + (t_fail - t0) * (1.0 - 2.0 ** -np.arange(1, 53)))
+        te = np.ascontiguousarray(te[(te > t0) & (te < t_fail)])
+        if te.size == 0:
+            return None
+        atol = system.tolerance(rtol) if atol is None else atol
+        out = as_solution(system.solve(float(t0), np.ascontiguousarray(y, dtype=float), te, False,
+                                       system.p, np.array(z, dtype=float), float(rtol),
+                                       np.ascontiguousarray(atol, dtype=float), 0.0,
+                                       float(system.hmax if hmax is None else hmax),
+                                       DEFAULT_MAX_STEPS, int(system.n_events), 1))
+        good = [i for i in range(int(out.n_out)) if np.all(np.isfinite(out.Y[i]))]
+        if not good:
+            return None
+        norm, t_seen = float(np.linalg.norm(out.Y[good[-1]] / sc)), float(te[good[-1]])
+    return (norm, t_seen) if norm >= ESCAPE_GROWTH * base else None
+
+
+def failure_message(system, out, t0: float, y, z, rtol: float, atol=None, hmax=None, y_fail=None,
+                    method=None) -> str:
+    """The one-line message of a failed integration ``out`` of ``system`` from (t0, y, z):
+    method_status_message, without the contact guess for a system without events, and naming
+    an escape to infinity where the state was growing without bound (escape_probe)."""
+    from nld.integrators.core import NON_FINITE, STEP_UNDERFLOW
+    escape = None
+    if int(out.status) in (STEP_UNDERFLOW, NON_FINITE):
+        escape = escape_probe(system, t0, y, z, out.t, rtol, atol, hmax, y_fail)
+    return method_status_message(method or system.method, out.status, out.t, out.stats,
+                                 contacts=int(system.n_events) > 0, escape=escape)
+
+
 def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = LYAPUNOV.rtol, *,
             atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
     """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
@@ -355,6 +403,7 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
         raise InputError(f"{system.name} is a map: use iterate(), not advance()")
     y = np.ascontiguousarray(y, dtype=float)
     z = np.array(z, dtype=float)
+    z0 = z.copy()
     if atol is None:
         atol = system.tolerance(rtol)
     atol = np.ascontiguousarray(atol, dtype=float)
@@ -364,8 +413,8 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
                        int(system.n_events), 1)
     out = as_solution(out)
     if out.status != 0 or out.n_out < 1:
-        raise SolveError(f"{system.name}: " + method_status_message(system.method, out.status, out.t,
-                                                                      out.stats))
+        raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0), y, z0, rtol, atol,
+                                                                hmax))
     return out.Y[0].copy(), z
 
 
@@ -639,11 +688,12 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
     if transient > 0:
         y, z = advance(system, y, z, t0, t0 + transient, rtol)
     t_eval = t0 + transient + dt * np.arange(n_samples)
+    z_start = z.copy()
     out = system.solve(float(t0 + transient), y, t_eval, False, system.p, z, float(rtol),
                        rtol * system.scales, 0.0, float(system.hmax), DEFAULT_MAX_STEPS,
                        int(system.n_events), 1)
     out = as_solution(out)
     if out.status != 0:
-        raise SolveError(f"{system.name}: " + method_status_message(system.method, out.status, out.t,
-                                                                      out.stats))
+        raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0 + transient), y,
+                                                                z_start, rtol, rtol * system.scales))
     return t_eval, out.Y

@@ -285,8 +285,10 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
                 int(getattr(system, "event_samples", EVENT_SAMPLES)), bool(orthonormalise))
     status, t_reached, y_out, n_done, stats, h_next = out
     if status not in (0, 1):
-        from nld.integrators import method_status_message
-        raise SolveError(f"{system.name} (tangent): "
-                         + method_status_message("dopri5", status, t_reached, stats))
+        from nld.integrators.core import Solution
+        from nld.systems.core import failure_message
+        fail = Solution(status, t_reached, None, 0, stats, None, None, None, 0, None)
+        raise SolveError(f"{system.name} (tangent): " + failure_message(
+            system, fail, float(t0), y, z, rtol, atol, system.hmax, y_fail=y_out, method="dopri5"))
     return TangentRun(int(status), float(t_reached), y_out, z, W, Wz, logs[:n_done], stats,
                       float(h_next), dg)
