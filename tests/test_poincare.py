@@ -265,3 +265,11 @@ def test_period_of_uses_the_clearance_for_eccentricity_near_zero():
     pts2 = pts.assign(**{"rod.omega": np.tile([1.0, 3.0], 10)})
     sc2 = section_scales(scene, pts2)
     assert np.isnan(sc2[2]) and period_of(pts2, scale=sc2) == 2
+
+
+def test_section_provenance_names_the_method_the_system_ran():
+    """A section of a system that runs dop853 says so in its provenance and message (it said
+    dopri5 whatever ran: issue 25). slider_crank's DOP853 is compiled for test_lyapunov too."""
+    from nld.systems.core import SceneSystem
+    sec = stroboscopic(SceneSystem("slider_crank", method="dop853"), transient_revs=0, revs=2, rtol=1e-6)
+    assert sec.provenance["integrator"] == "dop853" and sec.message.startswith("dop853: reached")

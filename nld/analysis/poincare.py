@@ -223,7 +223,6 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
 
 
 def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0, max_steps):
-    from nld.integrators.dopri5 import status_message
     if system.is_map:
         raise InputError(f"{system.name} is a map: iterate it, a stroboscopic section is for flows")
     if system.period is None:
@@ -250,7 +249,7 @@ def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0
     for o in obs:
         if o != "t":
             table[o] = Y[:n_out, system.state_names.index(o)]
-    msg = status_message(status, t_reached, st)
+    msg = _status_text(system, status, t_reached, st)
     y_final = Y[n_out - 1].copy() if n_out else y
     z_final = np.array(Zrows[n_out - 1], dtype=float) if n_out else z
     prov = _system_provenance(system, kind="stroboscopic", transient_revs=transient_revs,
@@ -259,11 +258,25 @@ def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0
     return Section(table, obs, y_final, z_final, float(t_reached), int(status), msg, T, prov)
 
 
+def _method(system) -> str:
+    """The integrator a system runs (``system.method``; dopri5 for a system without one)."""
+    return str(getattr(system, "method", None) or "dopri5")
+
+
+def _status_text(system, status, t_reached, stats) -> str:
+    """The status message of a run of ``system`` in the words of the method it ran."""
+    from nld.integrators import method_status_message
+    from nld.integrators.dopri5 import status_message
+    m = _method(system)
+    return (status_message(status, t_reached, stats) if m == "dopri5"
+            else method_status_message(m, status, t_reached, stats))
+
+
 def _system_provenance(system, **extra) -> dict:
     from nld.version import __version__
     from nld.output.provenance import git_hash
     d = {"nld_version": __version__, "git_hash": git_hash(), "system": system.name,
-         "parameters": system.p.tolist(), "integrator": "dopri5"}
+         "parameters": system.p.tolist(), "integrator": _method(system)}
     d.update(extra)
     return d
 
@@ -375,7 +388,6 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
       observable, worse across an impact (an impact inside the bracket breaks the smoothness).
     """
     from scipy.optimize import brentq
-    from nld.integrators.dopri5 import status_message
     if direction not in (-1, 0, 1):
         raise InputError(f"direction = {direction!r}: must be +1, -1 or 0")
     if _is_system(scene):
@@ -439,7 +451,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     if status == INTERRUPTED:
         msg = interrupted_message(t_reached, 0.0, t_end, n_out, len(grid))
     else:
-        msg = status_message(status, t_reached, st)
+        msg = _status_text(system, status, t_reached, st)
     rows = flow.observe_rows(grid, Y, Z, n_out)
     gi = flow.columns.index(observable)
     oi = [flow.columns.index(o) for o in obs]
@@ -515,7 +527,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
             table[o] = P[:, j]
     y_final = Y[n_out - 1].copy() if n_out else y
     z_final = np.array(Z[n_out - 1], dtype=float) if n_out else z
-    base = _system_provenance(system) if sc is None else _scene_provenance(sc)
+    base = _system_provenance(system) if sc is None else _scene_provenance(sc, system)
     base.update(kind="hyperplane", observable=observable, level=level, direction=direction,
                 modulo=modulo, t_transient=t_transient, t_end=t_end, grid_step=dt, refine=refine,
                 rtol=rtol, observables=obs, status=int(status), message=msg,
@@ -528,9 +540,9 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     return sec
 
 
-def _scene_provenance(sc) -> dict:
+def _scene_provenance(sc, system) -> dict:
     from nld.run.simulate import provenance
-    return provenance(sc)
+    return provenance(sc, integrator=_method(system))
 
 
 def _land(system, y, z, t0, t1, rtol, atol, hmax, max_steps):
