@@ -11,15 +11,45 @@ rtol=SECTIONS.rtol)``), the command line its option defaults and their help text
 (``nld poincare --rtol``), so the two cannot drift apart (tests/test_settings.py checks each shared
 setting, and that the table of docs/analysis.md, :func:`defaults_table`, is current).
 
-A layer-0 module: it imports nothing of nld.
+The range of a relative tolerance is checked in one place, :func:`check_rtol` (the API) and
+:func:`rtol_in_range` (the command line and the scene file, which word their own errors).
+
+A layer-0 module: it imports only nld.errors (itself importing nothing of nld).
 """
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, fields
+
+from nld.errors import InputError
 
 __all__ = ["Integration", "Spans", "Renormalisation", "SIMULATE", "SECTIONS", "SPECTRUM",
            "LYAPUNOV", "POINCARE_SPANS", "BIFURCATION_SPANS", "SPECTRUM_SPANS", "CHAOS_MAP_SPANS",
-           "TANGENT_SPANS", "BENETTIN_SPANS", "TANGENT", "BENETTIN", "defaults_table"]
+           "TANGENT_SPANS", "BENETTIN_SPANS", "TANGENT", "BENETTIN", "defaults_table",
+           "RTOL_RANGE", "RTOL_RANGE_TEXT", "rtol_in_range", "check_rtol"]
+
+RTOL_RANGE = (1e-14, 1.0)
+"""[low, high): the relative tolerances nld accepts (below 1e-14 the error control works at the
+round-off of double precision; 1 or more controls nothing)"""
+RTOL_RANGE_TEXT = "a number in [1e-14, 1)"
+
+
+def rtol_in_range(rtol) -> bool:
+    """True where ``rtol`` is a real number (a bool is not) in RTOL_RANGE."""
+    if isinstance(rtol, bool) or not isinstance(rtol, numbers.Real):
+        return False
+    return RTOL_RANGE[0] <= float(rtol) < RTOL_RANGE[1]
+
+
+def check_rtol(rtol, name: str = "rtol", *, none_ok: bool = False) -> float | None:
+    """``rtol`` as a float, checked: :class:`nld.errors.InputError` "NAME = VALUE: must be a number
+    in [1e-14, 1)" (" or None" where ``none_ok``, which lets None through) otherwise."""
+    if rtol is None and none_ok:
+        return None
+    if not rtol_in_range(rtol):
+        raise InputError(f"{name} = {rtol!r}: must be {RTOL_RANGE_TEXT}" + (" or None" if none_ok else ""))
+    return float(rtol)
+
 
 
 @dataclass(frozen=True)

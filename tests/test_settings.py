@@ -138,3 +138,16 @@ def test_docs_table_is_current():
     assert BEGIN in text and END in text
     table = text.split(BEGIN, 1)[1].split(END, 1)[0]
     assert table.strip() == S.defaults_table().strip()
+
+
+def test_the_rtol_range_is_checked_in_one_place():
+    """nld.settings.check_rtol / rtol_in_range is the one range check of a relative tolerance
+    (it was written seven times: issue 25)."""
+    import numpy as np
+
+    from nld.errors import InputError
+    from nld.settings import check_rtol
+    assert check_rtol(np.float32(1e-6)) == pytest.approx(1e-6) and check_rtol(None, none_ok=True) is None
+    for bad in (True, 1.0, 0, float("nan"), "1e-8"):
+        with pytest.raises(InputError, match=r"rtol = .*: must be a number in \[1e-14, 1\)$"):
+            check_rtol(bad)

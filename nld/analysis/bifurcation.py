@@ -47,7 +47,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError
-from nld.settings import BIFURCATION_SPANS, SECTIONS
+from nld.settings import BIFURCATION_SPANS, SECTIONS, check_rtol
 from nld.sweeps.store import META_KEY, PROVENANCE, ResultStore  # noqa: F401 - META_KEY re-exported
 
 __all__ = ["sweep", "load_sweep", "parse_values", "check_values"]
@@ -260,11 +260,7 @@ def _current_value(raw: dict, key: str):
 _MISSING = object()
 
 
-def _check_rtol(rtol, name: str) -> float:
-    if isinstance(rtol, bool) or not isinstance(rtol, (int, float, np.integer, np.floating)) \
-            or not 1e-14 <= rtol < 1:
-        raise InputError(f"{name} = {rtol!r}: must be a number in [1e-14, 1)")
-    return float(rtol)
+_check_rtol = check_rtol       # the name nld.analysis.chaos_map called (nld.settings.check_rtol)
 
 
 def _plain_value(v):
@@ -326,7 +322,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = BIFURCATION_SPANS.
         from nld.errors import InputTypeError
         raise InputTypeError(f"values = {values!r}: must be a list or array of values (parse_values "
                              "reads 'START:STOP:NUM')")
-    _check_rtol(rtol, "rtol")
+    check_rtol(rtol, "rtol")
     values = [_plain_value(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
     if not values:
         raise InputError("values: give at least one")

@@ -72,13 +72,14 @@ def number_arg(name: str, *, positive: bool = True):
 
 
 def rtol_arg(text: str) -> float:
-    """argparse type of ``--rtol`` and the like: a number in [1e-14, 1)."""
+    """argparse type of ``--rtol`` and the like: a number in [1e-14, 1) (nld.settings.rtol_in_range)."""
+    from nld.settings import RTOL_RANGE_TEXT, rtol_in_range
     try:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"--rtol = {text!r}: not a number") from None
-    if not (math.isfinite(v) and 1e-14 <= v < 1):
-        raise argparse.ArgumentTypeError(f"--rtol = {text}: must be a number in [1e-14, 1)")
+    if not rtol_in_range(v):
+        raise argparse.ArgumentTypeError(f"--rtol = {text}: must be {RTOL_RANGE_TEXT}")
     return v
 
 

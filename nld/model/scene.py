@@ -535,8 +535,11 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
     if source:
         src = str(source)
     from nld.integrators import METHODS
+    from nld.settings import RTOL_RANGE_TEXT, rtol_in_range
     method = _choice(st, "method", "scene", METHODS, "dopri5") if "method" in st else ""
-    rtol = _num(st, "rtol", "scene", None, ge=1e-14, lt=1.0) if "rtol" in st else None
+    rtol = _num(st, "rtol", "scene", None) if "rtol" in st else None
+    if rtol is not None and not rtol_in_range(rtol):
+        raise SceneError("scene.rtol", st["rtol"], f"must be {RTOL_RANGE_TEXT}")
 
     # [ground]
     gt = _table_of(raw, "ground", "ground")

@@ -17,7 +17,7 @@ from nld.interrupt import deferred
 from nld.kernel.compile import Kernel, compile_scene
 from nld.kernel.support import writable_vector
 from nld.progress import progress_bar
-from nld.settings import SIMULATE
+from nld.settings import SIMULATE, check_rtol
 from nld.integrators.core import as_solution
 from nld.model.scene_model import Scene
 from nld.model.topology import GROUND
@@ -309,8 +309,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         rtol = scene.rtol if scene.rtol is not None else DEFAULT_RTOL
     if method is None:
         method = scene.method or "dopri5"
-    if not (isinstance(rtol, float | int) and 1e-14 <= rtol < 1):
-        raise InputError(f"rtol = {rtol!r}: must be a number in [1e-14, 1)")
+    check_rtol(rtol)
     if method != "dopri5":
         from nld.integrators import METHODS
         if method not in METHODS:
