@@ -35,7 +35,7 @@ What it gives (all of it written once here, so that studies do not repeat it):
   :func:`timing` / :func:`drop_timing` (a timing, or "not shown" under SOURCE_DATE_EPOCH),
   :func:`verdict` (chaotic / regular / uncertain from an exponent, its uncertainty and the
   section length) and :func:`checked_verdict` (a verdict holds only if a run at a tighter
-  tolerance over a longer span gives the same).
+  tolerance over a longer span gives the same): ``nld.analysis.verdict``'s, re-exported.
 
 The numbers a study writes do not depend on the scaffold: it only names, places and labels them.
 """
@@ -58,8 +58,11 @@ __all__ = ["Study", "pool_map", "work_dir", "sde", "timing", "drop_timing", "run
            "staged_outputs", "full_mode_outputs"]
 
 NOT_SHOWN = "not shown (SOURCE_DATE_EPOCH)"
-SHORT = "λ1 > 0, short"
-NOT_ESTABLISHED = "not established"
+# the verdict rule is nld.analysis.verdict's (the only one): verdict(lam, unc, n_points,
+# min_points, failed) and checked_verdict(main, check) are its functions under the names the
+# studies use
+from nld.analysis.verdict import (NOT_ESTABLISHED, SHORT, checked_verdict,  # noqa: E402
+                                  exponent_verdict as verdict)
 _SETTINGS = {"full": "FULL", "quick": "QUICK", "smoke": "SMOKE"}
 
 
@@ -92,36 +95,6 @@ def run_table(runs: dict, columns: dict):
                         for label, key in columns.items()},
                      "wall time": round(r["wall_s"], 2)})
     return drop_timing(pd.DataFrame(rows), "wall time")
-
-
-def verdict(lam: float, unc: float, n_points: int, min_points: int, failed: bool | None = None) -> str:
-    """'chaotic' only for lambda - uncertainty > 0 over a section of at least ``min_points`` points
-    (a positive exponent over a shorter section is 'λ1 > 0, short': the section cannot tell an
-    attractor from a transient); 'regular' for lambda + uncertainty < 0; else 'uncertain'.
-    'failed' when ``failed`` (default: lambda is NaN)."""
-    if failed if failed is not None else not (lam == lam):
-        return "failed"
-    if lam + unc < 0:
-        return "regular"
-    if lam - unc > 0:
-        return "chaotic" if n_points >= min_points else SHORT
-    return "uncertain"
-
-
-def checked_verdict(main: str, check: str | None) -> str:
-    """The verdict that survives the check, or 'not established'.
-
-    main: the verdict (:func:`verdict`) at the study's tolerance and averaging span; check: the
-    verdict of the same point at a tighter tolerance over a longer span (None: not checked, main
-    is returned). A chaos verdict holds only if it survives a change of tolerance and of averaging
-    time (DEVELOPERS.md, Standards): equal verdicts are kept; 'failed' on either side is 'failed';
-    any other disagreement (chaotic at one setting, regular or uncertain at the other: an
-    intermittent or tolerance-dependent motion) is 'not established'."""
-    if check is None or check == main:
-        return main
-    if "failed" in (main, check):
-        return "failed"
-    return NOT_ESTABLISHED
 
 
 def merge_checks(pts, checked=None):
@@ -161,32 +134,31 @@ def pool_map(fn, items, workers: int) -> list:
     """``[fn(*item) for item in items]``, on ``workers`` spawned processes when > 1 and there
     is more than one item; results in the order of ``items``.
 
-    ``fn`` is a module-level function of the study: a worker imports the study from its folder
-    by its file name (which the processes inherit on sys.path). Workers ignore SIGINT (it
-    reaches the whole process group); on Ctrl-C or an error the pool is ended at once
-    (nld.interrupt.end_pool) instead of waiting for items that may take minutes."""
+    The pool is the sweeps' (nld.sweeps.executors.process_pool, one item per task): workers
+    ignore SIGINT (it reaches the whole process group) and show no progress bars; on Ctrl-C,
+    SIGTERM or an error the pool is ended at once (nld.interrupt.end_pool) instead of waiting
+    for items that may take minutes. ``fn`` is a module-level function of the study: a worker
+    imports the study from its folder by its file name (which the processes inherit on
+    sys.path)."""
     items = list(items)
     if workers <= 1 or len(items) <= 1:
         return [fn(*it) for it in items]
     import importlib
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
 
-    from nld.interrupt import end_pool, ignore_in_worker
+    from nld.sweeps.executors import process_pool
     src = Path(fn.__code__.co_filename).resolve()
     if str(src.parent) not in sys.path:
         sys.path.insert(0, str(src.parent))
     fn = getattr(importlib.import_module(src.stem), fn.__name__)
-    ex = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=mp.get_context("spawn"),
-                             initializer=ignore_in_worker)
-    try:
-        futs = [ex.submit(fn, *it) for it in items]
-        res = [f.result() for f in futs]
-    except BaseException:
-        end_pool(ex)
-        raise
-    ex.shutdown(wait=True)
-    return res
+    done = dict(process_pool(_numbered, fn, [(i, *it) for i, it in enumerate(items)],
+                             workers=min(workers, len(items)), batch_size=1))
+    return [done[i] for i in range(len(items))]
+
+
+def _numbered(fn, i, *args):
+    """(i, fn(*args)): a pool_map item with its place in the list (a pool returns them as they
+    finish)."""
+    return i, fn(*args)
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -123,7 +123,9 @@ def summarise(name: str, df: pd.DataFrame) -> dict:
     lam = ok["per_revolution"].astype(float)
     v = df["verdict"]
     return {"map": name, "cells": len(df), "chaotic": int((v == "chaotic").sum()),
-            "regular": int((v == "regular").sum()), "uncertain": int((v == "uncertain").sum()),
+            "regular": int((v == "regular").sum()),
+            "uncertain": int(v.isin(["uncertain", "not established", "λ1 > 0, short"]).sum()),
+            "permanent_contact": int((v == "permanent contact").sum()),
             "failed": int((v == "failed").sum()),
             "tolerance_dependent": int(df["message"].str.contains("depends on the tolerance").sum()),
             "max_lambda_per_rev": float(lam.max()) if len(lam) else math.nan,
@@ -266,10 +268,12 @@ def _check_discussion(sc: pd.DataFrame) -> str:
     for y, g in sc.groupby("y", sort=True):
         v = g["verdict"]
         parts.append(f"μ = {y:g}: {(v == 'chaotic').sum()} C / {(v == 'regular').sum()} R / "
-                     f"{(v == 'uncertain').sum()} ?")
+                     f"{v.isin(['uncertain', 'not established']).sum()} ? / "
+                     f"{(v == 'permanent contact').sum()} P")
     ok = sc[sc["status"] == "ok"]
     lower = int((ok["per_revolution_check"] < ok["per_revolution"]).sum())
-    return (" The tolerance check by friction value (chaotic / regular / uncertain): " + "; ".join(parts) +
+    return (" The tolerance check by friction value (chaotic / regular / uncertain or not "
+            "established / permanent contact): " + "; ".join(parts) +
             f". In {lower} of {len(ok)} cells the exponent is lower at the tighter tolerance. A verdict "
             "is established mainly where the exponent is clearly positive or negative at both tolerances; "
             "an onset boundary is claimed only there.")

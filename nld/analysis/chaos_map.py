@@ -29,7 +29,8 @@ keys set together, e.g. the clearances of joints A and B) and runs:
    ``check_span`` times the span (a chaos verdict must survive a change of tolerance and of
    averaging time; ``check_span`` 1 keeps the span). A
    cell whose two exponents differ by more than ``CHECK_FACTOR`` x (the sum of their
-   uncertainties) is "uncertain" whatever their signs: the value belongs to the integrator, not
+   uncertainties), or whose two verdicts differ, is "not established" whatever their signs (the
+   one verdict rule, ``nld.analysis.verdict``): the value belongs to the integrator, not
    to the mechanism (seen with the stiff Lankarani-Nikravesh contact in permanent contact:
    docs/lyapunov.md, "Tolerance-dependent exponents").
 
@@ -48,7 +49,8 @@ Result (one row per cell, y outer, x inner): ``x, y, ix, iy, exponent`` (1/s), `
 (1/s, block standard error + history spread, docs/lyapunov.md), ``per_revolution`` and
 ``uncertainty_per_revolution`` (natural log per crank revolution), ``verdict`` ("chaotic":
 exponent - uncertainty > 0, "regular": exponent + uncertainty < 0, "uncertain" otherwise,
-"failed"; with ``rtol_check`` both exponents must pass and agree), ``K``, ``K_spread`` (half the
+"failed"; with ``rtol_check`` both exponents must give the same verdict and agree, else "not
+established"; ``nld.analysis.verdict``), ``K``, ``K_spread`` (half the
 inter-quartile range of K_c), ``period`` (of the section, 0 none), ``status``, ``message``,
 ``per_revolution_check``, ``uncertainty_per_revolution_check`` (the exponent at ``rtol_check``
 per revolution; NaN without it). ``attrs``: ``provenance``, ``param_x``, ``param_y`` (lists of
@@ -65,8 +67,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from nld.settings import CHAOS_MAP_SPANS, LYAPUNOV
+from nld.settings import CHAOS_MAP_SPANS, LYAPUNOV, check_rtol
 from nld.analysis import bifurcation as _bif
+from nld.analysis.verdict import CHECK_FACTOR, NOT_ESTABLISHED, SHORT, verdict as verdict_rule
 from nld.errors import InputError
 from nld.sweeps.store import ResultStore
 
@@ -85,8 +88,8 @@ _EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check",
 # trajectories, a check over the same span)
 _EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin", "check_span": 1.0,
                    "min_section_points": 0}
-# exponents at two tolerances "agree" when they differ by at most this many combined uncertainties
-CHECK_FACTOR = 3.0
+# exponents at two tolerances "agree" when they differ by at most CHECK_FACTOR combined
+# uncertainties (nld.analysis.verdict.CHECK_FACTOR, imported above)
 
 
 @dataclass
@@ -144,24 +147,6 @@ def _cell_scene(job: _Job, x, y):
     return scene_from_dict(raw, job.spec.source)
 
 
-def _verdict(lam, unc, status, lam_check=math.nan, unc_check=math.nan) -> str:
-    """chaotic: lam - unc > 0; regular: lam + unc < 0; else uncertain. With a check exponent
-    (finite lam_check) both must give the same verdict and agree to CHECK_FACTOR x (unc +
-    unc_check), else the cell is uncertain."""
-    if status != "ok" or not math.isfinite(lam):
-        return "failed"
-
-    def one(la, un):
-        u = un if math.isfinite(un) else 0.0
-        return "chaotic" if la - u > 0 else "regular" if la + u < 0 else "uncertain"
-    v = one(lam, unc)
-    if math.isfinite(lam_check):
-        u = (unc if math.isfinite(unc) else 0.0) + (unc_check if math.isfinite(unc_check) else 0.0)
-        if one(lam_check, unc_check) != v or abs(lam - lam_check) > CHECK_FACTOR * u:
-            return "uncertain"
-    return v
-
-
 def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     """Run one cell; never raises for a bad value or a failed run (status 'failed')."""
     from nld.kernel.compile import compile_scene
@@ -175,6 +160,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
     status, message = "ok", ""
     lam = unc = per_rev = unc_rev = K = K_spread = math.nan
     lam_c = unc_c = per_rev_c = unc_rev_c = math.nan
+    permanent = False
     period = 0
     obs = job.observable
     y_final = z_final = None
@@ -214,6 +200,12 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
                                rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
         lam, unc = float(res.exponent), float(res.uncertainty)
         per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
+        permanent = bool(getattr(res, "diagnostics", {}).get("permanent_contact", False))
+        if permanent:
+            mem = res.diagnostics.get("conditional_on_memory", {})
+            notes.append("permanent contact: no contact onset over the span, lambda conditional "
+                         "on the recorded memory " + ", ".join(f"{k} = {v:.4g} m/s"
+                                                               for k, v in mem.items()))
         if job.rtol_check is not None:      # the same exponent at a second tolerance and span
             chk = largest_exponent(system, job.estimator,
                                    total=job.check_span * spec.lyapunov_revs * sec.period,
@@ -221,7 +213,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
             lam_c, unc_c = float(chk.exponent), float(chk.uncertainty)
             per_rev_c = float(chk.per_revolution)
             unc_rev_c = float(chk.uncertainty_per_revolution)
-            if _verdict(lam, unc, "ok", lam_c, unc_c) == "uncertain" != _verdict(lam, unc, "ok"):
+            if verdict_rule(lam, unc, lam_check=lam_c, unc_check=unc_c) == NOT_ESTABLISHED:
                 notes.append(f"lambda depends on the tolerance: {per_rev:.3g} +- {unc_rev:.2g} per "
                              f"revolution at rtol {spec.lyapunov_rtol:g}, {per_rev_c:.3g} +- "
                              f"{unc_rev_c:.2g} at rtol {job.rtol_check:g}")
@@ -229,11 +221,14 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
         status = "failed"
         message = (str(e) if isinstance(e, _CellFailed)
                    else f"{type(e).__name__}: {' '.join(str(e).split())}")
-    verdict = _verdict(lam, unc, status, lam_c, unc_c)
     n_sec = int((table["rev"] >= 0).sum()) if table is not None and "rev" in table else 0
-    if verdict == "chaotic" and n_sec < job.min_section_points:
-        # a positive exponent over a section too short to tell an attractor from a transient
-        verdict = "uncertain"
+    # the one verdict rule (nld.analysis.verdict): a positive exponent over a section shorter
+    # than min_section_points cannot tell an attractor from a transient ("λ1 > 0, short")
+    verdict = verdict_rule(lam, unc, lam_check=lam_c, unc_check=unc_c, n_points=n_sec,
+                           min_points=job.min_section_points,
+                           failed=status != "ok" or not math.isfinite(lam),
+                           permanent_contact=permanent)
+    if verdict == SHORT:
         notes.append(f"lambda > 0 over a section of {n_sec} points (a chaotic verdict needs "
                      f"{job.min_section_points})")
     if notes:
@@ -318,8 +313,10 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     the scaled norm; d0 is refused with the tangent estimator).
     rtol_check (default None: no check): a second tolerance at which the exponent is recomputed
     from the same state, averaged over ``check_span`` (default 1, >= 1) times the span; the cell
-    is "uncertain" unless both agree (module docstring, step 4). min_section_points (default 0):
-    a cell with a positive exponent over a section of fewer points is "uncertain", not chaotic
+    is "not established" unless both agree (module docstring, step 4). A cell whose exponent
+    span had no contact onset under a law with memory is "permanent contact" (its exponent is
+    conditional on the recorded memory; docs/contact-laws.md). min_section_points (default 0):
+    a cell with a positive exponent over a section of fewer points is "λ1 > 0, short", not chaotic
     (a short section cannot tell an attractor from a transient; the studies use 50). It costs about check_span x
     (rtol / rtol_check)^(1/5) times the exponent (DOPRI5's steps), twice or more.
     lyapunov_method: the integrator of the exponent (and of its check): "dopri5" (default; the
@@ -355,9 +352,9 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
             raise InputError(f"parameter {k!r}: not a value of scene {sc.name!r} (a --set key such "
                              "as joints.B.clearance or joints.B.friction.mu)")
     vx, vy = _values(values_x, "values_x"), _values(values_y, "values_y")
-    _bif._check_rtol(rtol, "rtol")
+    check_rtol(rtol, "rtol")
     if lyapunov_rtol is not None:
-        _bif._check_rtol(lyapunov_rtol, "lyapunov_rtol")
+        check_rtol(lyapunov_rtol, "lyapunov_rtol")
     transient_revs = _check_count("transient_revs", transient_revs, 0)
     revs = _check_count("revs", revs, 1)
     lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
@@ -377,9 +374,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     if estimator == "tangent" and d0 is not None:
         raise InputError(f"d0 = {d0!r}: a separation of the two-trajectory estimator; the "
                          "tangent estimator has none (use estimator='benettin')")
-    if rtol_check is not None and not (isinstance(rtol_check, (int, float))
-                                       and 1e-14 <= rtol_check < 1):
-        raise InputError(f"rtol_check = {rtol_check!r}: must be a number in [1e-14, 1) or None")
+    check_rtol(rtol_check, "rtol_check", none_ok=True)
     if not (isinstance(min_section_points, (int, np.integer)) and not isinstance(min_section_points, bool)
             and min_section_points >= 0):
         raise InputError(f"min_section_points = {min_section_points!r}: must be an integer >= 0")
@@ -536,7 +531,8 @@ def chaos_map_plot(df: pd.DataFrame, *, value: str = "lambda", ax=None, title: s
         U[iy, ix] = df["uncertainty_per_revolution"].astype(float).to_numpy()
         uncertain[iy, ix] = np.abs(Z[iy, ix]) <= U[iy, ix]
         if "verdict" in df:          # includes the cells whose exponent fails the tolerance check
-            uncertain[iy, ix] |= (df["verdict"] == "uncertain").to_numpy()
+            uncertain[iy, ix] |= df["verdict"].isin(["uncertain", NOT_ESTABLISHED,
+                                                     SHORT]).to_numpy()
     failed[iy, ix] = (df["status"] != "ok").to_numpy() | ~np.isfinite(Z[iy, ix])
     x_log = _is_log(xs) if x_log is None else x_log
     y_log = _is_log(ys) if y_log is None else y_log

@@ -8,15 +8,15 @@ import shlex
 import signal
 import sys
 
-from nld.cli import bifurcation, chaos_map, hard_cases, lyapunov, orbits, poincare, scenes, \
-    simulate, spectrum, study
+from nld.cli import attractors, bifurcation, chaos_map, hard_cases, lyapunov, orbits, poincare, \
+    scenes, simulate, spectrum, study
 from nld.cli.args import PROG, Parser, UsageError, print_error, print_interrupted, progress_args
 from nld.errors import InputError, Interrupted, SceneError, SolveError
 from nld.version import __version__
 
 # the sub-commands in the order of ``nld --help``
-COMMANDS = (scenes, simulate, poincare, bifurcation, spectrum, chaos_map, lyapunov, orbits, hard_cases,
-            study)
+COMMANDS = (scenes, simulate, poincare, bifurcation, spectrum, chaos_map, lyapunov, orbits,
+            attractors, hard_cases, study)
 
 
 def build_parser() -> Parser:

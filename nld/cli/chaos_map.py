@@ -44,7 +44,7 @@ def add_parser(sub):
                     help="relative tolerance of the exponent (default --rtol)")
     sp.add_argument("--rtol-check", type=rtol_arg, default=None, metavar="R",
                     help="recompute each exponent at this second tolerance; cells where the two "
-                         "disagree are 'uncertain' (default: no check)")
+                         "disagree are 'not established' (default: no check)")
     sp.add_argument("--check-span", type=number_arg("--check-span"), default=1.0, metavar="F",
                     help="with --rtol-check: average the check over F times the exponent's span "
                          "(default 1; 2 checks a change of averaging time too)")
@@ -124,7 +124,8 @@ def cmd_chaos_map(args) -> int:
                    progress=args.progress, on_point=on_point)
     counts = df["verdict"].value_counts()
     print(f"wrote {len(df)} cells to {args.out} (read with nld.analysis.chaos_map.load_chaos_map): "
-          + ", ".join(f"{counts.get(v, 0)} {v}" for v in ("chaotic", "regular", "uncertain", "failed")))
+          + ", ".join(f"{counts.get(v, 0)} {v}" for v in ("chaotic", "regular", "uncertain", "not established",
+                                                             "failed")))
     if args.plot is not None:
         import matplotlib
         matplotlib.use("Agg")

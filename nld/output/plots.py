@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["unit_of", "label_of", "poincare_scatter", "bifurcation_diagram",
-           "exponent_convergence", "spectrum_plot", "figure_axes"]
+           "exponent_convergence", "spectrum_plot", "figure_axes", "basin_fractions"]
 
 DIRECTION_COLOURS = {"up": "tab:blue", "down": "tab:orange"}
 
@@ -268,4 +268,48 @@ def branch_diagram(curves, observable: str, param: str, *, sweep: pd.DataFrame |
     ax.set_title(title if title is not None else f"Periodic-orbit branches: {observable}")
     if shown:
         ax.legend(fontsize=7)
+    return fig
+
+
+def basin_fractions(table: pd.DataFrame, param: str, *, title: str | None = None,
+                    param_scale: float = 1.0, param_unit: str | None = None,
+                    period_name: str = "revolution"):
+    """Basin fractions stacked against a parameter, one colour per attractor (its label kept
+    across the values), unsettled runs in grey; beside it λ1 of each attractor with its
+    uncertainty. table: ``nld.analysis.attractors.match_attractors`` (value, label, kind,
+    fraction, lambda1, lambda1_uncertainty). Returns the Figure (two axes)."""
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(9.6, 4.2), layout="constrained")
+    ax, bx = fig.subplots(1, 2)
+    t = table[table["label"] >= -1]
+    vals = np.sort(t["value"].unique())
+    x = vals * param_scale
+    labels = sorted(int(v) for v in t["label"].unique() if v >= 0) + \
+        ([-1] if (t["label"] == -1).any() else [])
+    bottom = np.zeros(vals.size)
+    for lab in labels:
+        g = t[t["label"] == lab]
+        f = np.array([float(g[g["value"] == v]["fraction"].sum()) for v in vals])
+        kinds = ", ".join(sorted(set(g["kind"])))
+        colour = "0.75" if lab < 0 else f"C{lab % 10}"
+        name = "unsettled" if lab < 0 else f"#{lab} {kinds}"
+        ax.fill_between(x, bottom, bottom + f, step="mid", color=colour, alpha=0.85, label=name,
+                        lw=0)
+        bottom += f
+        if lab >= 0:
+            ok = g[np.isfinite(g["lambda1"].to_numpy(dtype=float))]
+            bx.errorbar(ok["value"].to_numpy(dtype=float) * param_scale,
+                        ok["lambda1"].to_numpy(dtype=float),
+                        yerr=ok["lambda1_uncertainty"].to_numpy(dtype=float), fmt="o-",
+                        color=colour, ms=3, capsize=2, label=name)
+    xl = param + (f" [{param_unit}]" if param_unit else "")
+    ax.set_xlabel(xl)
+    ax.set_ylabel("basin fraction")
+    ax.set_ylim(0, 1)
+    ax.legend(fontsize=7, loc="best")
+    bx.axhline(0.0, color="0.5", lw=0.8)
+    bx.set_xlabel(xl)
+    bx.set_ylabel(f"λ1 [per {period_name}]")
+    if title:
+        fig.suptitle(title)
     return fig

@@ -34,8 +34,9 @@ from nld.errors import InputError, SolveError
 from nld.integrators import method_status_message
 from nld.integrators.core import as_solution
 from nld.integrators.tangent import N_DIAG, DG_DIV, DG_LOGDET, DG_GRAZE, crossing_diag
+from nld.systems.core import wrap_angles as wrap_angles_of
 
-__all__ = ["MapStep", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
+__all__ = ["MapStep", "SectionRun", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
            "contact_events"]
 
 # event log length of the plain (no-Jacobian) step: enough for any number of onsets per period
@@ -69,6 +70,25 @@ class MapStep:
     divergence: float = math.nan
     grazing: int = 0
     time: float = math.nan
+
+
+@dataclass
+class SectionRun:
+    """Section points of a run (:meth:`StroboscopicMap.orbit`).
+
+    X: (m, N) the recorded points (augmented state, SI), m = n unless the run failed.
+    z: the discrete state after the last recorded point. onsets: contact onsets per contact event
+    over the recorded steps. gaps: (m, n_contacts) the contact events' values at the points (a
+    scene: penetration, m; > 0 in contact). success / message: as for an integrator result.
+    y_start: the flow state the recording started from (after the transient).
+    """
+    X: np.ndarray
+    z: np.ndarray
+    onsets: np.ndarray
+    gaps: np.ndarray
+    success: bool
+    message: str
+    y_start: np.ndarray
 
 
 def contact_events(system) -> np.ndarray:
@@ -322,6 +342,54 @@ class StroboscopicMap(_FlowMap):
     def __call__(self, x, z=None):
         s = self.step(x, z)
         return s.x, s.z
+
+    def orbit(self, x, z=None, n: int = 100, *, transient: int = 0) -> "SectionRun":
+        """The section points x_1 .. x_n after ``transient`` steps, from two integrations (the
+        transient, then the n steps sampled on the dense output: no landing at each period, so
+        n steps cost one integration, not n). Never raises for a failed integration: the result
+        says how far it got (``SectionRun``). Contact onsets are counted over the n recorded
+        steps only; ``gaps`` are the contact events' values (a scene: the penetration, m, > 0 in
+        contact) at each recorded point."""
+        z = self.z0 if z is None else z
+        y, zz = self.unpack(x, z, relabel=True)
+        t0 = self.t0
+        n, transient = int(n), int(transient)
+        if transient > 0:
+            try:
+                out, zz, _ = self._plain(y, zz, t0, t0 + transient * self.T)
+            except SolveError as e:
+                return SectionRun(np.zeros((0, self.n)), zz, np.zeros(self.contacts.size, np.int64),
+                                  np.zeros((0, self.contacts.size)), False, str(e), y)
+            y = wrap_angles_of(self.flow, out.Y[0].copy())
+        sysm = self.flow
+        te = t0 + self.T * np.arange(1, n + 1)
+        atol = sysm.tolerance(self.rtol)
+        out = as_solution(sysm.solve(float(t0), np.ascontiguousarray(y, dtype=float), te, False,
+                                     sysm.p, np.array(zz, dtype=float), self.rtol, atol, 0.0,
+                                     float(sysm.hmax), 50_000_000, int(sysm.n_events),
+                                     _MAX_LOG + 400 * n))
+        m = int(out.n_out)
+        Y = np.array(out.Y[:m])
+        Z = np.array(out.Z[:m])
+        X = np.empty((m, self.n))
+        gaps = np.zeros((m, self.contacts.size))
+        g = np.zeros(max(1, int(sysm.n_events)))
+        for i in range(m):
+            Y[i] = wrap_angles_of(sysm, Y[i])
+            X[i] = self.pack(Y[i], Z[i])
+            if self.contacts.size:
+                sysm.events(float(te[i]), np.ascontiguousarray(Y[i]), sysm.p,
+                            np.ascontiguousarray(Z[i]), g)
+                gaps[i] = g[self.contacts]
+        onsets = np.zeros(self.contacts.size, dtype=np.int64)
+        k, d = out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev]
+        for j, e in enumerate(self.contacts):
+            onsets[j] = int(np.count_nonzero((k == e) & (d > 0)))
+        ok = out.status == 0 and m == n
+        msg = "" if ok else f"{sysm.name}: " + method_status_message(sysm.method, out.status,
+                                                                       out.t, out.stats)
+        z_end = np.array(Z[-1]) if m else np.array(zz)
+        return SectionRun(X, z_end, onsets, gaps, bool(ok), msg, y)
 
     def trajectory(self, x, z=None, n_samples: int = 200, *, with_z: bool = False):
         """The flow's states along one step from x: (t (s) from the step's start, Y (n_samples,
