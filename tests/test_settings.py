@@ -142,7 +142,9 @@ def test_docs_table_is_current():
 
 def test_the_rtol_range_is_checked_in_one_place():
     """nld.settings.check_rtol / rtol_in_range is the one range check of a relative tolerance
-    (it was written seven times: issue 25)."""
+    (it was written seven times: issue 25); no other module writes the range."""
+    import re
+
     import numpy as np
 
     from nld.errors import InputError
@@ -151,3 +153,7 @@ def test_the_rtol_range_is_checked_in_one_place():
     for bad in (True, 1.0, 0, float("nan"), "1e-8"):
         with pytest.raises(InputError, match=r"rtol = .*: must be a number in \[1e-14, 1\)$"):
             check_rtol(bad)
+    nld_dir = Path(__file__).resolve().parent.parent / "nld"
+    writes = [p.name for p in nld_dir.rglob("*.py") if p.name != "settings.py"
+              and re.search(r"1e-14 <=|ge=1e-14", p.read_text())]
+    assert writes == []

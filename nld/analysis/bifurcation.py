@@ -260,9 +260,6 @@ def _current_value(raw: dict, key: str):
 _MISSING = object()
 
 
-_check_rtol = check_rtol       # the name nld.analysis.chaos_map called (nld.settings.check_rtol)
-
-
 def _plain_value(v):
     if isinstance(v, np.generic):
         v = v.item()
