@@ -124,7 +124,8 @@ def summarise(name: str, df: pd.DataFrame) -> dict:
     v = df["verdict"]
     return {"map": name, "cells": len(df), "chaotic": int((v == "chaotic").sum()),
             "regular": int((v == "regular").sum()),
-            "uncertain": int(v.isin(["uncertain", "not established", "λ1 > 0, short"]).sum()),
+            "uncertain": int(v.isin(["uncertain", "λ1 > 0, short"]).sum()),
+            "not_established": int((v == "not established").sum()),
             "permanent_contact": int((v == "permanent contact").sum()),
             "failed": int((v == "failed").sum()),
             "tolerance_dependent": int(df["message"].str.contains("depends on the tolerance").sum()),
@@ -201,8 +202,10 @@ def _texts(summ, bnd, maps, st_all, mode_label, walls):
     def line(name):
         r = s.loc[name]
         return (f"{name}: {int(r['cells'])} cells, {int(r['chaotic'])} chaotic, {int(r['regular'])} regular, "
-                f"{int(r['uncertain'])} uncertain (of which {int(r['tolerance_dependent'])} because λ1 "
-                "changed with the tolerance), "
+                f"{int(r['uncertain'])} uncertain, {int(r['not_established'])} not established "
+                f"({int(r['tolerance_dependent'])} because λ1 changed with the tolerance), "
+                f"{int(r['permanent_contact'])} in permanent contact (λ1 conditional on the "
+                "contact memory), "
                 f"{int(r['failed'])} failed; λ1 from {r['min_lambda_per_rev']:.3g} to "
                 f"{r['max_lambda_per_rev']:.3g} per revolution (median uncertainty "
                 f"{r['median_uncertainty_per_rev']:.2g}); wall time {walls[name]:.0f} s.")

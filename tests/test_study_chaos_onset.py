@@ -44,8 +44,13 @@ def test_summary_matches_stored_map(quick_run):
         ok = m[m["status"] == "ok"]
         assert row["max_lambda_per_rev"] == pytest.approx(ok["per_revolution"].max(), rel=1e-12)
         assert row["min_lambda_per_rev"] == pytest.approx(ok["per_revolution"].min(), rel=1e-12)
-        for v in ("chaotic", "regular", "uncertain", "failed"):
+        for v in ("chaotic", "regular", "failed"):
             assert row[v] == (m["verdict"] == v).sum()
+        assert row["uncertain"] == m["verdict"].isin(["uncertain", "λ1 > 0, short"]).sum()
+        assert row["not_established"] == (m["verdict"] == "not established").sum()
+        assert row["permanent_contact"] == (m["verdict"] == "permanent contact").sum()
+        assert row[["chaotic", "regular", "failed", "uncertain", "not_established",
+                    "permanent_contact"]].sum() == len(m)
         # verdicts follow the exponent and its uncertainty
         ch = ok[ok["verdict"] == "chaotic"]
         assert (ch["per_revolution"] - ch["uncertainty_per_revolution"] > 0).all()
