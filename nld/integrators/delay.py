@@ -518,12 +518,15 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
                 # store the piece [t, t_hi] in the history, then write the outputs in it
                 if m > 0:
                     _channel_nodes(t, t_hi, taus, cst, cR, hc, hs, ht0, hh, ht1, count, v, vn)
-                ht0, hh, ht1, hc, hs, count = _make_room(ht0, hh, ht1, hc, hs, count,
-                                                         t - keep)
+                # (calls guarded: a call with this many array arguments costs ~0.5 us)
+                if count == ht0.shape[0]:
+                    ht0, hh, ht1, hc, hs, count = _make_room(ht0, hh, ht1, hc, hs, count,
+                                                             t - keep)
                 count = _push(t, h_d, t_hi, cont, vn, ht0, hh, ht1, hc, hs, count)
-                i_out = _write_rows(t, h_d, t_hi, ynew, cont, t_eval, i_out, Y, Zo, z, U, S, p,
-                                    pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc,
-                                    hs, ht0, hh, ht1, count)
+                if i_out < n_eval and t_eval[i_out] <= t_hi:
+                    i_out = _write_rows(t, h_d, t_hi, ynew, cont, t_eval, i_out, Y, Zo, z, U, S,
+                                        p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx,
+                                        hc, hs, ht0, hh, ht1, count)
                 t = t_hi
                 y, ynew = ynew, y
             if not have_event:
