@@ -609,3 +609,81 @@ def save_route(study, route: dict) -> None:
     study.prov["route_to_chaos"] = route_record(route)
     for name, tab in route_tables(route).items():
         study.save(f"_route_{name}.csv", tab)
+
+
+# ---------------------------------------------------------------- coexisting motions
+CENSUS_COLUMNS = ["point", "verdict_before", "census_verdict", "attractor", "kind", "period",
+                  "fraction", "fraction_lo", "fraction_hi", "lambda1_per_rev",
+                  "lambda1_unc_per_rev", "onsets_per_rev", "count", "starts", "memory"]
+
+
+def census_points(study, scene: str, points: dict, st: dict):
+    """The attractor census (``nld.analysis.attractors.census``) at each point whose verdict is
+    not established: points ``{label: (overrides, verdict before)}``; st: the study's
+    ``census`` settings (starts, transient, record, rtol, seed) and ``workers``. One row per
+    attractor (and one per point for its unsettled runs), columns :data:`CENSUS_COLUMNS`; the
+    census's verdict ("coexisting", or the one attractor's class) replaces "not established"."""
+    import pandas as pd
+    from nld.analysis.attractors import census
+    from nld.systems.core import SceneSystem
+    rows = []
+    c = st["census"]
+    for label, (ov, before) in points.items():
+        study.stage(f"census at {label}")
+        res = census(SceneSystem(scene, list(ov)), c["starts"], transient=c["transient"],
+                     record=c["record"], rtol=c["rtol"], seed=c.get("seed", 0),
+                     workers=st["workers"])
+        for a in res.attractors:
+            mem = ("" if not a.conditional_on_memory else "; ".join(
+                f"{k} {lo:.3g}..{hi:.3g} m/s" for k, (lo, hi) in a.conditional_on_memory.items()))
+            rows.append(dict(point=label, verdict_before=before, census_verdict=res.verdict,
+                             attractor=a.id, kind=a.kind, period=a.period, fraction=a.fraction,
+                             fraction_lo=a.fraction_interval[0],
+                             fraction_hi=a.fraction_interval[1], lambda1_per_rev=a.lambda1,
+                             lambda1_unc_per_rev=a.lambda1_uncertainty,
+                             onsets_per_rev=a.onsets_per_period, count=a.count,
+                             starts=res.n_starts, memory=mem))
+        if res.unsettled or not res.attractors:
+            lo, hi = res.unsettled_interval
+            rows.append(dict(point=label, verdict_before=before, census_verdict=res.verdict,
+                             attractor=-1, kind="unsettled", period=0,
+                             fraction=res.unsettled / res.n_starts, fraction_lo=lo,
+                             fraction_hi=hi, lambda1_per_rev=float("nan"),
+                             lambda1_unc_per_rev=float("nan"), onsets_per_rev=float("nan"),
+                             count=res.unsettled, starts=res.n_starts, memory=""))
+    return pd.DataFrame(rows, columns=CENSUS_COLUMNS)
+
+
+def census_verdicts(df) -> dict:
+    """{point: census verdict} of a :func:`census_points` table."""
+    return {} if df is None or not len(df) else \
+        dict(zip(df["point"], df["census_verdict"]))
+
+
+def census_page(rep, df, st: dict, what: str) -> None:
+    """The report page "Coexisting motions": the census at every point whose verdict was not
+    established, its attractors, basin fractions (Wilson 95 %), λ1 and onsets per revolution.
+    what: the points' description for the text."""
+    c = st["census"]
+    if df is None or not len(df):
+        rep.text_page("Coexisting motions (attractor census)", [
+            f"No {what} had a verdict 'not established', so no census was run."])
+        return
+    show = df.drop(columns=["verdict_before", "starts"]).rename(columns={
+        "census_verdict": "census", "fraction_lo": "lo", "fraction_hi": "hi",
+        "lambda1_per_rev": "λ1/rev", "lambda1_unc_per_rev": "±", "onsets_per_rev": "onsets/rev"})
+    rep.table("Coexisting motions (attractor census)", show, notes=[
+        f"Where the verdict of a {what} was 'not established' (the exponent's verdict changed "
+        f"with the tolerance and the averaging span), the attractor census "
+        f"(nld.analysis.attractors, docs/attractors.md) says which motions coexist there: "
+        f"{c['starts']} seeded starts (the assembled state with the journal placed across its "
+        f"clearance circle, sampled rates and contact memories), {c['transient']} revolutions "
+        f"of transient and {c['record']} recorded per start at rtol {c['rtol']:g}; each run "
+        f"classed on its stroboscopic section; fraction = share of starts with its Wilson 95 % "
+        f"interval [lo, hi]; λ1 per revolution (estimator tangent with saltation, rtol "
+        f"{c['rtol']:g}, averaged over the {c['record']} recorded revolutions) on up to 2 runs "
+        f"of the attractor (± their larger uncertainty + half their spread). 'permanent contact': no "
+        f"contact onset under the Lankarani–Nikravesh law over the recorded span, so the motion "
+        f"and its λ1 depend on the memory the last impact left (range in 'memory'); "
+        f"'unsettled': runs neither periodic nor resolved within the run. The census verdict "
+        f"replaces 'not established': 'coexisting' where more than one motion was found."])

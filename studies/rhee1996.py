@@ -53,12 +53,16 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
                         0.3e-3, 0.4e-3, 0.5e-3],
             frictions=[0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.08, 0.1, 0.15, 0.2, 0.3],
             rtol_check=1e-10, check_span=2, workers=2,
+            census=dict(starts=16, transient=100, record=100, rtol=1e-8, always=[]),
             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.0, max_period=2,
                        transient=50, values=[0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.1]))
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
              samples_per_rev=360, peak_detect=20, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
              rtol_check=1e-8, check_span=2, workers=1,
+             # quick mode runs the census at one case even where its verdict holds, so that the
+             # path is exercised (the report says so)
+             census=dict(starts=2, transient=10, record=16, rtol=1e-7, always=["mu=0.3"]),
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
                         transient=10, values=[0.09, 0.1], rtol=1e-8))
 MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
@@ -85,7 +89,8 @@ EC_LIM = 1.15
 
 
 VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
-                  "uncertain": "0.5", "not established": "tab:olive"}
+                  "uncertain": "0.5", "not established": "tab:olive", "coexisting": "tab:pink",
+                  "permanent contact": "tab:cyan"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
@@ -616,13 +621,14 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     res = run_cases(study, st, period)
     sweeps, pts_c, pts_f, walls = run_all_sweeps(study, st, period, base.joints["B"].clearance)
     add_sweep_verdicts(res, pts_c, pts_f)
+    cen = run_census(study, st, res, pts_c, pts_f, base.joints["B"].clearance)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
     route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
     wall = study.elapsed()
     _provenance(study, base, st, res, sweeps, pts_c, pts_f, summary, period, walls, wall)
-    _save(study, base, res, sweeps, summary)
+    _save(study, base, res, sweeps, summary, cen)
     save_route(study, route)
-    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route)
+    _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route, cen)
     return study.pdf
 
 
@@ -667,7 +673,37 @@ def _provenance(study, base, st, res, sweeps, pts_c, pts_f, summary, period, wal
                                       for k, v in sweeps.items()})
 
 
-def _save(study, base, res, sweeps, summary):
+def run_census(study, st, res, pts_c, pts_f, c_f):
+    """The attractor census (nld.study.census_points) at every case and sweep point whose verdict
+    is 'not established' (one census per parameter pair), and at the cases of
+    st["census"]["always"]; the census verdict replaces 'not established' in the case rows and the
+    sweep points. Returns the census table."""
+    from nld.study import NOT_ESTABLISHED, census_points, census_verdicts
+    points, where = {}, {}
+    for name, (group, ov, c, mu) in CASES.items():
+        if res[name]["row"]["verdict"] == NOT_ESTABLISHED or name in st["census"]["always"]:
+            points[name] = (ov, res[name]["row"]["verdict"])
+            where[(round(c, 12), mu)] = name
+    for pts, key, fixed in ((pts_c, "joints.B.clearance", None), (pts_f, "joints.B.friction.mu", c_f)):
+        for v, vd in zip(pts["value"].astype(float), pts["verdict"]):
+            pair = (round(v if fixed is None else fixed, 12), 0.01 if fixed is None else v)
+            if vd == NOT_ESTABLISHED and pair not in where:
+                where[pair] = f"c={pair[0] * 1e3:g}mm, μ={pair[1]:g}"
+                points[where[pair]] = ([f"{key}={v!r}"], vd)
+    cen = census_points(study, SCENE, points, st)
+    got = census_verdicts(cen)
+    for name in CASES:
+        if name in got and res[name]["row"]["verdict"] == NOT_ESTABLISHED:
+            res[name]["row"]["verdict"] = got[name]
+    for pts, fixed in ((pts_c, None), (pts_f, c_f)):
+        for i, (v, vd) in enumerate(zip(pts["value"].astype(float), pts["verdict"])):
+            pair = (round(v if fixed is None else fixed, 12), 0.01 if fixed is None else v)
+            if vd == NOT_ESTABLISHED and where.get(pair) in got:
+                pts.loc[pts.index[i], "verdict"] = got[where[pair]]
+    return cen
+
+
+def _save(study, base, res, sweeps, summary, cen=None):
     study.save(".parquet", {n: res[n]["table"] for n in CASES})
     # sections and sweeps with the eccentricity over the clearance (B.ex/c, B.ey/c) as plotted
     study.save("_sections.parquet", {n: with_ec(res[n]["section"].table, CASES[n][2]) for n in CASES})
@@ -677,10 +713,14 @@ def _save(study, base, res, sweeps, summary):
     study.save("_spectra.parquet", {n: pd.DataFrame(res[n]["spectrum"]) for n in CASES})
     study.save("_peaks.csv", pd.concat([res[n]["maxima"] for n in CASES], ignore_index=True))
     study.save("_summary.csv", summary)
+    if cen is not None:
+        study.prov["census"] = dict(settings=study.settings["census"],
+                                    points=sorted(set(cen["point"])))
+        study.save("_census.csv", cen)
 
 
-def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route=None):
-    from nld.study import sde, timing
+def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route=None, cen=None):
+    from nld.study import census_page, sde, timing
     st, mode_label, prov = study.settings, study.label, study.prov
     shown = summary.drop(columns=["group", "status"] + (["wall_s"] if sde() else []))
     shown = shown.rename(columns={"clearance_mm": "c", "lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
@@ -715,7 +755,8 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
                          f"{prov['case_check_estimator'][next(iter(CASES))]}, from the same state. sweep: the "
                          "verdict of the sweep point with the same parameters (run from the assembly, next "
                          "table). verdict: verdict 1 where verdict 2 and the sweep agree, else 'not "
-                         "established'. points: section "
+                         "established', which the attractor census then replaces (page 'Coexisting "
+                         "motions'). points: section "
                          "points. period: period of the "
                          "Poincaré section (points repeat to 1e-6 of the clearance; 0 = none up to 16). "
                          f"Fn/rev ± 95 %: mean of the contact-force maxima of the {st['spec_revs']} "
@@ -742,11 +783,13 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
                          f"{MIN_SECTION_POINTS} section points for 'chaotic'). verdict 2: the point run "
                          f"again from the assembly at rtol {st['rtol_check']:g} with {st['check_span']}x the "
                          "averaging span (points called regular by verdict 1 are not run again; blank). "
-                         "verdict: verdict 1 where verdict 2 agrees, else 'not established'. "
+                         "verdict: verdict 1 where verdict 2 agrees, else 'not established', which "
+                         "the attractor census then replaces (page 'Coexisting motions'). "
                          "value: clearance in mm, or the friction coefficient. period: of the section, "
                          "points repeating to 1e-6 of the clearance (0 = none up to 16). Stored in "
                          f"{STEM}_sweeps.parquet (lyapunov in 1/s; x period {period:.4g} s = per rev)."],
                   float_format=lambda v: f"{v:.4g}")
+        census_page(rep, cen, st, "case or sweep point")
         _fig_sections(rep, res, period)
         ylim = lam_ylim(pts_c, pts_f)
         elim = ec_limit(with_ec(sweeps["clearance"]),
