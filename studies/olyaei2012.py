@@ -34,13 +34,14 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import route_pages, run_route, save_route
+from nld.study import route_pages, run_route, save_route, verdict as verdict_rule
 
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
@@ -59,6 +60,7 @@ FULL = dict(rtol=1e-8, transient_revs=100, revs=64, lyap_revs=64, lyap_rtol=1e-1
             speeds_low_mu=list(np.arange(500.0, 6001.0, 250.0) / RPM),
             case_transient=100, case_revs=300, case_lyap_revs=200, case_lyap_rtol=1e-10,
             check_rtol_factor=0.1, check_span=2, workers=2,
+            census=dict(starts=16, transient=100, record=100, rtol=1e-9, always=[]),
             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.02, max_period=2,
                        transient=50, values=[0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.075, 0.1]))
 QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-10,
@@ -66,6 +68,9 @@ QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-1
              frictions=[0.0, 0.1], speeds_low_mu=[1500.0 / RPM, SPEED0],
              case_transient=10, case_revs=20, case_lyap_revs=12, case_lyap_rtol=1e-10,
              check_rtol_factor=0.1, check_span=2, workers=1,
+             # quick mode runs the census at one point even where its verdict holds, so that the
+             # path is exercised
+             census=dict(starts=2, transient=10, record=16, rtol=1e-7, always=[("friction", 0)]),
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
                         transient=10, values=[0.09, 0.1], rtol=1e-8))
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
@@ -117,15 +122,15 @@ EC_LIM = 1.15
 
 
 VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5",
-                  "not established": "tab:olive"}
+                  "not established": "tab:olive", "coexisting": "tab:pink",
+                  "permanent contact": "tab:cyan"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
 
-def _verdict(lam, unc, n_points):
-    """nld.study.verdict with this study's MIN_SECTION_POINTS (below it a positive exponent is SHORT)."""
-    from nld.study import verdict
-    return verdict(lam, unc, n_points, MIN_SECTION_POINTS)
+# the one verdict rule (nld.analysis.verdict) with this study's MIN_SECTION_POINTS:
+# _verdict(lam, unc, n_points) (below it a positive exponent is SHORT)
+_verdict = partial(verdict_rule, min_points=MIN_SECTION_POINTS)
 
 
 def _clearance(name: str, value: float) -> float:
@@ -267,6 +272,9 @@ def summary_table(points: dict) -> pd.DataFrame:
                      "regular": int((pts["verdict"] == "regular").sum()),
                      "positive_short": int((pts["verdict"] == SHORT).sum()),
                      "uncertain": int((pts["verdict"] == "uncertain").sum()),
+                     "coexisting": int((pts["verdict"] == "coexisting").sum()),
+                     "permanent_contact": int((pts["verdict"] == "permanent contact").sum()),
+                     "not_established": int((pts["verdict"] == "not established").sum()),
                      "failed": int((pts["status"] != "ok").sum()),
                      "periodic_sections": int((ok["period_c"] > 0).sum()),
                      "max_lambda_per_rev": float(ok["lambda_per_rev"].max()) if len(ok) else math.nan,
@@ -278,6 +286,28 @@ def summary_table(points: dict) -> pd.DataFrame:
                      "chaotic_windows": len(win),
                      "lambda_zero_crossings": len(zero_crossings(pts, SWEEPS[name][4]))})
     return pd.DataFrame(rows)
+
+
+def run_census(study, st: dict, points: dict):
+    """The attractor census (nld.study.census_points) at every sweep point whose checked verdict is
+    'not established' (and at st["census"]["always"]: (sweep, index) pairs); the census verdict
+    ('coexisting', or the one attractor's class) replaces 'not established' in ``points``.
+    Returns the census table."""
+    from nld.study import NOT_ESTABLISHED, census_points, census_verdicts
+    todo, where = {}, {}
+    for name, pts in points.items():
+        for i, (v, vd) in enumerate(zip(pts["value"].astype(float), pts["verdict"])):
+            if vd == NOT_ESTABLISHED or (name, i) in [tuple(a) for a in st["census"]["always"]]:
+                label = f"{name}: {_fmt_value(name, v)}"
+                todo[label] = (_overrides(name, v), vd)
+                where[(name, i)] = label
+    cen = census_points(study, SCENE, todo, st)
+    got = census_verdicts(cen)
+    for (name, i), label in where.items():
+        pts = points[name]
+        if pts["verdict"].iloc[i] == NOT_ESTABLISHED and label in got:
+            pts.loc[pts.index[i], "verdict"] = got[label]
+    return cen
 
 
 def _overrides(name: str, value: float):
@@ -788,6 +818,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     sweeps, walls = run_sweeps(st)
     points = _timed(walls, "verdict check", check_points, st,
                     {name: sweep_points(name, df) for name, df in sweeps.items()}, sweeps)
+    cen = _timed(walls, "attractor census", run_census, study, st, points)
     summary = summary_table(points)
     states = showcase_states(points, st, walls)
     tolcheck = _timed(walls, "tolerance check", tolerance_check, points, st)
@@ -795,9 +826,10 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     walls["route to chaos"] = route["wall_s"]
     total_wall = study.elapsed()
     _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
-    stacked = _save(study, sweeps, points, summary, tolcheck, states)
+    stacked = _save(study, sweeps, points, summary, tolcheck, states, cen)
     save_route(study, route)
-    _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route)
+    _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route,
+            cen)
     return study.pdf
 
 
@@ -869,7 +901,7 @@ def _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wal
         **({} if sde() else {"wall_s": {"sweeps": walls, "total_before_report": total_wall}}))
 
 
-def _save(study, sweeps, points, summary, tolcheck, states) -> dict:
+def _save(study, sweeps, points, summary, tolcheck, states, cen=None) -> dict:
     stacked = {}
     for name, df in sweeps.items():
         # with the eccentricity over the clearance of the point (B.ex/c, B.ey/c) as plotted
@@ -880,6 +912,10 @@ def _save(study, sweeps, points, summary, tolcheck, states) -> dict:
     study.save("_points.csv", pd.concat(points.values(), ignore_index=True))
     study.save("_summary.csv", summary)
     study.save("_tolcheck.csv", tolcheck)
+    if cen is not None:
+        study.prov["census"] = dict(settings=study.settings["census"],
+                                    points=sorted(set(cen["point"])))
+        study.save("_census.csv", cen)
     secs = {k: with_ec(s["section"].table, s["clearance"]) for k, s in states.items() if s}
     if secs:
         study.save("_sections.parquet", secs)
@@ -887,8 +923,8 @@ def _save(study, sweeps, points, summary, tolcheck, states) -> dict:
 
 
 def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall,
-            route=None):
-    from nld.study import timing
+            route=None, cen=None):
+    from nld.study import census_page, timing
     st, mode_label, prov = study.settings, study.label, study.prov
     report_settings = {
         "Mode": mode_label,
@@ -923,7 +959,8 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
         rep.table("Summary of the sweeps", shown, col_units={"max λ1": "1/rev", "min λ1": "1/rev"},
                   notes=["Verdicts are checked: every point not called regular is run again from the assembly "
                          f"at {st['check_rtol_factor']:g}x both tolerances with λ1 over {st['check_span']}x the "
-                         "span, and keeps its verdict only if the two agree ('not established' otherwise; "
+                         "span, and keeps its verdict only if the two agree ('not established' otherwise, "
+                         "which the attractor census then replaces: page 'Coexisting motions'; "
                          "columns verdict_main, lambda_check, verdict_check of the points file). "
                          "Per sweep: points by verdict (chaotic: λ1 − uncertainty > 0 over a section of at least "
                          f"{MIN_SECTION_POINTS} points; λ1 > 0 short: λ1 − uncertainty > 0 over fewer, not called "
@@ -933,6 +970,7 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
                          f"{STEM}_points.csv; each number here follows from that file. λ1 (all sweeps): "
                          + " | ".join(dict.fromkeys(prov["sweep_estimator"].values())) + "."],
                   float_format=lambda v: f"{v:.4g}")
+        census_page(rep, cen, st, "sweep point")
         ylim = lam_ylim(points)
         elim = ec_limit(*stacked.values(), floor=EC_LIM)
         for name in SWEEPS:

@@ -33,13 +33,14 @@ span and uncertainty from the result's own settings.
 from __future__ import annotations
 
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import route_pages, run_route, save_route
+from nld.study import route_pages, run_route, save_route, verdict as verdict_rule
 
 SCENE = "four_bar"
 STEM = "rhee1996"
@@ -95,10 +96,9 @@ UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spre
                     "estimate over its last half")
 
 
-def verdict(lam: float, unc: float, n_points: int) -> str:
-    """nld.study.verdict with this study's MIN_SECTION_POINTS ('chaotic' needs that many)."""
-    from nld.study import verdict as _verdict
-    return _verdict(lam, unc, n_points, MIN_SECTION_POINTS)
+# the one verdict rule (nld.analysis.verdict) with this study's MIN_SECTION_POINTS:
+# verdict(lam, unc, n_points) ('chaotic' needs that many section points)
+verdict = partial(verdict_rule, min_points=MIN_SECTION_POINTS)
 
 
 def check_text(st) -> str:

@@ -170,18 +170,37 @@ def test_the_one_verdict_rule():
 
 def test_no_other_module_defines_a_verdict():
     """Architecture: the verdict rule lives in nld/analysis/verdict.py only (issue 25, item 4):
-    no other module of nld or studies/ defines a function whose name contains 'verdict'."""
+    no function of another module of nld/ or studies/ returns a verdict word it decided itself
+    (a literal 'chaotic', 'regular', 'uncertain', 'not established' ... in a return value, as
+    the former nld.study.verdict and chaos_map._verdict did). Functions that pass on what the
+    rule returned are fine."""
+    from nld.analysis.verdict import VERDICTS
+    words = set(VERDICTS) - {"failed"}
     root = Path(__file__).resolve().parent.parent
     found = []
     for path in sorted(list((root / "nld").rglob("*.py")) + list((root / "studies").glob("*.py"))):
         if path.name == "verdict.py" and path.parent.name == "analysis":
             continue
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and \
-                    "verdict" in node.name.lower() and not isinstance(node, ast.Lambda):
-                found.append(f"{path.relative_to(root)}:{node.lineno} {node.name}")
-    allowed = {"verdict"}          # CensusResult.verdict: a property that calls the rule
-    assert [f for f in found if f.split()[-1] not in allowed] == []
+        for fn in ast.walk(ast.parse(path.read_text(), str(path))):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for ret in ast.walk(fn):
+                if isinstance(ret, ast.Return) and ret.value is not None and \
+                        _returns_word(ret.value, words):
+                    found.append(f"{path.relative_to(root)}:{ret.lineno} {fn.name}")
+    assert found == []
+
+
+def _returns_word(node, words) -> bool:
+    """The expression's value can be a literal verdict word: the literal itself, or one of the
+    branches of a conditional expression or a boolean operation (not a subscript key)."""
+    if isinstance(node, ast.Constant):
+        return node.value in words
+    if isinstance(node, ast.IfExp):
+        return _returns_word(node.body, words) or _returns_word(node.orelse, words)
+    if isinstance(node, ast.BoolOp):
+        return any(_returns_word(v, words) for v in node.values)
+    return False
 
 
 # ------------------------------------------------------------------ command line
