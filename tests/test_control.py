@@ -236,3 +236,20 @@ def test_pyragas_rossler_upo_slow():
     scan = C.stability_domain(S, fb, [0.0, 0.2, 0.4], y0=r.run.y, t0=r.run.t[-1],
                               history=r.run.history, transient=10 * T, span=20 * T)
     assert scan.lambda1[0, 0] > 0 and scan.stable[0, 1]
+
+
+@pytest.mark.slow
+def test_ogy_duffing_stroboscopic_slow():
+    """OGY on a flow's stroboscopic map (monodromy from the tangent integrator, parameter
+    sensitivity by finite differences of one period): the forced Duffing period-1 saddle."""
+    from nld.analysis.orbits import find_orbits
+    from nld.systems.core import duffing
+    D = duffing()
+    found = find_orbits(D, max_period=1)
+    o = [q for q in getattr(found, "orbits", found) if q.stable is False][0]
+    r = C.ogy(D, "gamma", orbit=o, dp_max=0.05, radius=0.3, n_iter=400, lyapunov_iter=50,
+              window=30)
+    assert r.status == "controlled" and r.orbit_distance < 1e-6
+    assert np.min(np.abs(r.closed_loop_multipliers)) < 1e-8
+    assert r.lambda1_uncontrolled > 0 > r.lambda1_controlled
+    assert r.effort_rms_final < 1e-6 * r.effort_rms_initial
