@@ -136,7 +136,7 @@ def _cmd_sweep(args) -> int:
     save_table(table, out / "attractors.csv", prov)
     for v in sorted(set(table["value"])):
         g = table[table["value"] == v]
-        parts = [f"#{int(r.label)} {r.kind} {r.fraction:.2f}" + (
+        parts = [(f"#{int(r.label)} " if r.label >= 0 else "") + f"{r.kind} {r.fraction:.2f}" + (
             f" (λ1 {r.lambda1:.3g} ± {r.lambda1_uncertainty:.2g})"
             if math.isfinite(r.lambda1) else "") for r in g.itertuples() if r.label >= -1]
         print(f"{args.param} = {v:g}: " + ("; ".join(parts) if parts else "failed"))
