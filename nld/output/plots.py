@@ -293,8 +293,8 @@ def basin_fractions(table: pd.DataFrame, param: str, *, title: str | None = None
         kinds = ", ".join(sorted(set(g["kind"])))
         colour = "0.75" if lab < 0 else f"C{lab % 10}"
         name = "unsettled" if lab < 0 else f"#{lab} {kinds}"
-        ax.fill_between(x, bottom, bottom + f, step="mid", color=colour, alpha=0.85, label=name,
-                        lw=0)
+        width = 0.8 * (float(np.min(np.diff(x))) if x.size > 1 else 1.0)
+        ax.bar(x, f, width=width, bottom=bottom, color=colour, alpha=0.9, label=name, lw=0)
         bottom += f
         if lab >= 0:
             ok = g[np.isfinite(g["lambda1"].to_numpy(dtype=float))]
@@ -302,8 +302,17 @@ def basin_fractions(table: pd.DataFrame, param: str, *, title: str | None = None
                         ok["lambda1"].to_numpy(dtype=float),
                         yerr=ok["lambda1_uncertainty"].to_numpy(dtype=float), fmt="o-",
                         color=colour, ms=3, capsize=2, label=name)
+    if param_unit is None:
+        param_unit = unit_of(param) or None
     xl = param + (f" [{param_unit}]" if param_unit else "")
     ax.set_xlabel(xl)
+    if vals.size > 1:
+        lo, hi = float(x.min()), float(x.max())
+        pad = 0.5 * (hi - lo) / (vals.size - 1)
+        ax.set_xlim(lo - pad, hi + pad)
+        bx.set_xlim(lo - pad, hi + pad)
+    for a in (ax, bx):
+        a.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4))
     ax.set_ylabel("basin fraction")
     ax.set_ylim(0, 1)
     ax.legend(fontsize=7, loc="best")
