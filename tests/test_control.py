@@ -37,6 +37,16 @@ def count_event(k, direction, t, y, p, z):
     return 0
 
 
+@njit(cache=True)
+def unit_rhs(t, y, p, z, dy):
+    dy[0] = 1.0
+
+
+@njit(cache=True)
+def level_event(t, y, p, z, g):
+    g[0] = y[0] - p[0]
+
+
 def steps_closed_form(t: float) -> float:
     """y'(t) = -y(t - 1), y = 1 for t <= 0: y(t) = sum_{k=0}^{n} (-1)^k (t - k + 1)^k / k! on
     [n - 1, n] (method of steps; on [0, 3]: 1 - t, + (t-1)^2/2, - (t-2)^3/6)."""
@@ -111,6 +121,19 @@ def test_dde_continuation_history_and_events():
     assert ev.status == 0 and ev.n_ev >= 1 and z[0] == ev.n_ev
     assert ev.ev_t[0] == pytest.approx(0.5, abs=1e-10) and ev.ev_dir[0] == -1
     assert abs(ev.Y[0, 0] - steps_closed_form(3.0)) < 1e-9
+
+
+def test_events_see_the_effective_parameters():
+    """A PARAM input moves an event that depends on that parameter: y' = 1, g = y - p0, the input
+    adds u = 0.5 (an offset) to p0 = 1, so the crossing is at t = 1.5, not 1 (with the base p a
+    controlled load made a stick/slip switch chatter on the excavator scene)."""
+    from nld.integrators.delay import PARAM
+    law = DelayLaw.make(1, 1, [0.7], [0], gd=[[0.0]], u0=[0.5], kinds=[PARAM], targets=[0])
+    z = np.zeros(1)
+    out = dde(unit_rhs, level_event, count_event, 0.0, [0.0], np.array([3.0]), True,
+              np.array([1.0]), z, 1e-10, np.array([1e-10]), 0.0, 0.0, 10**5, 1, 4, law)
+    assert out.status == 0 and out.n_ev == 1 and z[0] == 1.0
+    assert out.ev_t[0] == pytest.approx(1.5, abs=1e-9) and out.ev_dir[0] == 1
 
 
 @pytest.fixture(scope="module")

@@ -104,6 +104,13 @@ def _state_index(system, value, field_name: str) -> tuple[int, str]:
 def _param_index(system, value, field_name: str) -> tuple[int, str]:
     p = np.asarray(getattr(system, "p", np.zeros(0)))
     names = list(getattr(system, "param_names", []) or [])
+    layout = getattr(getattr(system, "kernel", None), "layout", None)
+    if isinstance(value, str) and layout is not None and not names:
+        # a scene: its parameter vector's layout (nld.model.parameters), e.g. loads.0.value
+        if value not in layout.index:
+            raise InputError(f"{field_name} = {value!r}: no such entry of the scene's parameter "
+                             f"vector; entries: {', '.join(layout.names)}")
+        return int(layout.index[value]), value
     if isinstance(value, str):
         if value not in names:
             raise InputError(f"{field_name} = {value!r}: no such parameter of "
@@ -164,7 +171,8 @@ def delayed_feedback(system, gain, delay, signal, *, memory=0.0, input: str = "s
 
     signal: a state name or index; input "state" with target a state name/index (default the
     signal's own derivative) or "param" with target a parameter name (``system.param_names``) or
-    index of p. InputError (one line: field, value, what is allowed) for a negative or zero
+    index of p (a scene: an entry of its parameter vector, e.g. ``loads.0.value``,
+    ``driver.torque``). InputError (one line: field, value, what is allowed) for a negative or zero
     delay, an unknown signal or target, R outside [0, 1), a gain that is not finite."""
     K = _finite("gain", gain, "K must be a finite number (unit of u per unit of the signal)")
     tau = _finite("delay", delay, "tau must be a positive finite time (the target orbit's "
