@@ -155,11 +155,14 @@ def _channels(ts, taus, cst, cR, hc, hs, ht0, hh, ht1, count, v):
 @njit(cache=True)
 def _inputs(ts, ys, p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh,
             ht1, count):
-    """Channels v, inputs u (clipped to +-u_max) and the effective parameters pe at (ts, ys)."""
+    """Channels v, inputs u (clipped to +-u_max) and the effective parameters pe at (ts, ys)
+    (pe must hold a copy of p: only the entries that PARAM inputs drive are written)."""
     if taus.shape[0] > 0:
         _channels(ts, taus, cst, cR, hc, hs, ht0, hh, ht1, count, v)
-    for k in range(p.shape[0]):
-        pe[k] = p[k]
+    # pe holds p (copied once by the caller) except at the PARAM targets, reset here
+    for i in range(u0.shape[0]):
+        if ikind[i] == PARAM:
+            pe[iidx[i]] = p[iidx[i]]
     n = ys.shape[0]
     for i in range(u0.shape[0]):
         a = u0[i]
@@ -404,6 +407,9 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
     zsave = np.empty(z.shape[0])
     pe = np.empty(p.shape[0])
     pev = np.empty(p.shape[0])      # the effective parameters the events see
+    for k in range(p.shape[0]):
+        pe[k] = p[k]
+        pev[k] = p[k]
     v = np.empty(m)
     u = np.empty(nu)
     vn = np.empty((5, m))
