@@ -1051,6 +1051,23 @@ def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
 # ----------------------------------------------------------------------------------------- output
 
 
+# the committed summary of the sensitivity study (studies/zhang2013_sensitivity.py, issue 28)
+SENSITIVITY_CSV = Path(__file__).resolve().parent.parent / "reports" / "zhang2013_sensitivity_summary.csv"
+
+
+def _sensitivity_page(rep) -> None:
+    """The page "What it takes to reach the paper's numbers" (text and figure) drawn from the committed
+    sensitivity study's summary, when it is there (full mode only: the study is run on its own,
+    nld study zhang2013_sensitivity --out reports/)."""
+    if not SENSITIVITY_CSV.is_file():
+        return
+    import runpy
+
+    from nld.output.io import load_table
+    summary, prov = load_table(SENSITIVITY_CSV)
+    runpy.run_path(str(Path(__file__).with_name("zhang2013_sensitivity.py")))["paper_page"](rep, summary, prov)
+
+
 def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
     # time series of every case (and the ideal twin), with a steady flag
     data = {}
@@ -1134,6 +1151,8 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
         rep.text_page("Figure by figure: what agrees with the paper and what does not",
                       _agreement_text(summary, pts, tables, ideal, ts))
         rep.text_page("Why the numbers differ", reasons)
+        if mode == "full":
+            _sensitivity_page(rep)
         for group in GROUPS:
             _fig_trajectory(rep, group, tables, ideal, ts)
             fno = GROUPS[group][2]
