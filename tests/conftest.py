@@ -18,7 +18,7 @@ LONGEST_FIRST = [          # seconds in a cold run at stop 22 (sum of setup + ca
     "test_simulator.py",         # 21 (78)
     "test_study_olyaei2012.py",  # 20 (31)
     "test_chaos_map.py",         # 20 (23)
-    "test_control.py",           # 16 (new: 15.7 s CPU, 25 s wall at load 3; ~13 s of it compiling the delay integrator)
+    "test_control.py",           # 16 (new: 15.1 s CPU, 24 s wall at load 6.8; ~12 s of it compiling the delay integrator)
     "test_lyapunov.py",          # 13 (13)
     "test_scenes_family.py",     # 10 (60)
     "test_compile_once.py",      # 10 (new)
