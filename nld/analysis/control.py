@@ -32,8 +32,8 @@ its uncertainty the standard error of batch means (4 or more batches).
 Hénon map) or a flow's StroboscopicMap (one forcing period; a scene: one crank revolution). The
 target is a period-q orbit x_i* from nld.analysis.orbits.periodic_orbit; A_i the map's Jacobian
 (step(jacobian=True): the monodromy for a flow), w_i = dP/dp by central finite differences in the
-parameter. Near x_i* (scaled distance < ``radius``) the parameter of the next q iterations'
-first is perturbed by dp = -k_i . (x - x_i*), k_i by pole placement (Ackermann's formula;
+parameter. Near x_i* (scaled distance < ``radius``) the parameter is perturbed for one
+iteration (then left alone for the q - 1 after it) by dp = -k_i . (x - x_i*), k_i by pole placement (Ackermann's formula;
 Romeiras, Grebogi, Ott & Dayawansa 1992, Physica D 58:165) on the q-step map M_i with input
 w~_i = A_{i+q-1} ... A_{i+1} w_i that moves every unstable eigenvalue to 0 and keeps the stable
 ones. With one unstable real eigenvalue lambda_u (left eigenvector f_u) this is OGY's formula
