@@ -67,11 +67,11 @@ FULL = dict(_RUN, transient_revs=10, steady_revs=20,
             literal_damping=[0.0, 0.1, 0.3, 0.5, 0.55, 0.6, 0.65, 0.7, 1.0, 2.0, 3.0],
             frictions=[0.0, 0.01, 0.02, 0.05, 0.1],
             readings=["coulomb", "coulomb, undamped", "ambrosio", "eq. 17 literal", "eq. 17 literal, damping x3"],
-            clearance_sweeps=["damping", "M43", "K2", "pairs"])
+            clearance_sweeps=["damping", "M43", "K2", "pairs"], long_revs=150)
 QUICK = dict(_RUN, transient_revs=1, steady_revs=3, samples_per_rev=3600, workers=2,
              bases=["f=0", "f=0.05"], damping=[0.0, 1.0], m43=[4800.0], k2=[3.91e7], l4=[], R=[],
              motor_inertia=[0.1], motor_slope=[], motor=(0.1, 100.0), pair_damping=[], pair_m43=[], literal_damping=[],
-             frictions=[0.0, 0.05], readings=["coulomb", "eq. 17 literal"], clearance_sweeps=[])
+             frictions=[0.0, 0.05], readings=["coulomb", "eq. 17 literal"], clearance_sweeps=[], long_revs=0)
 SMOKE = dict(QUICK, transient_revs=0, steady_revs=2, samples_per_rev=720, keep_every=8, refine_top=2, workers=1,
              damping=[1.0], m43=[], k2=[], motor_inertia=[], frictions=[], readings=[])
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {steady_revs} revolutions, a few points",
@@ -135,9 +135,10 @@ def grid(st: dict, d: dict) -> list[dict]:
     (the eq. 17 experiment), motor (J, k) for a torque-driven crank (T0 filled in later)."""
     pts = []
 
-    def add(base, sweep, x, ov, series="", reversed_=False, motor=None):
+    def add(base, sweep, x, ov, series="", reversed_=False, motor=None, revs=None):
         pts.append(dict(base=base, sweep=sweep, series=series, x=float(x), reversed=reversed_, motor=motor,
-                        overrides=(BASES[base][0] if base in BASES else []) + ov))
+                        overrides=(BASES[base][0] if base in BASES else []) + ov,
+                        revs=revs or (st["transient_revs"], st["steady_revs"])))
     friction_bases = [b for b in st["bases"] if b.startswith("f=")]
     for b in st["bases"]:
         swept = ["damping", "M43", "K2", "l4", "R", "motor"] if b in friction_bases else st["clearance_sweeps"]
@@ -161,6 +162,9 @@ def grid(st: dict, d: dict) -> list[dict]:
             law = ['joints.A.friction.law="ambrosio"', 'joints.B.friction.law="ambrosio"'] if f > 0 else []
             for s in st["literal_damping"]:
                 add(b, "damping", s, law + _damping(d, s), series="eq. 17 literal", reversed_=f > 0)
+        if b in friction_bases and st["long_revs"]:         # undamped: does the rattle settle?
+            add(b, "long run", 0.0, _damping(d, 0.0), series=f"undamped, 0 + {st['long_revs']} revolutions",
+                revs=(0, st["long_revs"]))
         if b in friction_bases or "pairs" in swept:
             for s in st["pair_damping"]:
                 for m in st["pair_m43"]:
@@ -174,7 +178,7 @@ def grid(st: dict, d: dict) -> list[dict]:
                             "nan"))
         p["key"] = hashlib.sha1(json.dumps([p["overrides"], p["reversed"], p["motor"],
                                             {k: st[k] for k in _RUN if k != "workers"},
-                                            st["transient_revs"], st["steady_revs"]]).encode()).hexdigest()[:16]
+                                            p["revs"]]).encode()).hexdigest()[:16]
     return pts
 
 
@@ -227,7 +231,7 @@ def run_point(p: dict, st: dict, work: str, show: bool, i: int, n: int) -> dict:
     if path.is_file():          # finished before (or the same run under another sweep's name)
         try:
             rec = json.loads(path.read_text(encoding="utf-8"))
-            return dict(rec, **{k: v for k, v in p.items() if k not in ("overrides", "motor")})
+            return dict(rec, **{k: v for k, v in p.items() if k not in ("overrides", "motor", "revs")})
         except (OSError, ValueError):
             pass
     stage(STEM, f"point {i} of {n}: {p['base']}, {p['sweep']} = {p['x']:g} {p['series']}".rstrip(), enabled=show)
@@ -241,14 +245,16 @@ def run_point(p: dict, st: dict, work: str, show: bool, i: int, n: int) -> dict:
         from nld.kernel.compile import compile_scene
         kern = reversed_kernel(compile_scene(scene))
     t0 = time.perf_counter()
-    run = revolution_maxima(scene, ["rod.omega"], revs=st["steady_revs"], transient_revs=st["transient_revs"],
+    tr, n_revs = p["revs"]
+    run = revolution_maxima(scene, ["rod.omega"], revs=n_revs, transient_revs=tr,
                             rtol=st["rtol"], samples_per_rev=st["samples_per_rev"], keep_every=st["keep_every"],
                             refine_top=st["refine_top"], peak_rtol=st["peak_rtol"], kernel=kern,
                             max_steps_per_rev=st["max_steps_per_rev"], progress=False)
     pk = run.maxima["peak"].to_numpy(float) if run.success else np.zeros(0)
     w = run.table["rod.omega"].to_numpy(float) if len(run.table) else np.zeros(0)
-    rec = {k: v for k, v in p.items() if k not in ("overrides", "motor")}
-    rec.update(overrides=" ".join(ov), success=bool(run.success and len(pk) == st["steady_revs"]),
+    rec = {k: v for k, v in p.items() if k not in ("overrides", "motor", "revs")}
+    rec.update(overrides=" ".join(ov), success=bool(run.success and len(pk) == n_revs),
+               transient_revs=tr, steady_revs=n_revs,
                message=run.message, t_reached=float(run.t_reached), steps=int(run.stats.get("accepted", 0)),
                rejected=int(run.stats.get("rejected", 0)), events=int(run.events), wall_s=time.perf_counter() - t0,
                motor_J=p["motor"][0] if p["motor"] else None, motor_k=p["motor"][1] if p["motor"] else None,
@@ -260,7 +266,7 @@ def run_point(p: dict, st: dict, work: str, show: bool, i: int, n: int) -> dict:
         slope, icpt = np.polyfit(r, pk, 1)
         res = pk - (slope * r + icpt)
         se = float(np.sqrt(res @ res / max(pk.size - 2, 1) / ((r - r.mean()) @ (r - r.mean()))))
-        steady = run.table[run.table["t"] >= st["transient_revs"] * 2 * math.pi / st["speed"] - 1e-12]
+        steady = run.table[run.table["t"] >= tr * 2 * math.pi / st["speed"] - 1e-12]
         rec.update(mean=iv.mean, half_width=iv.half_width, batch=iv.batch, tau=iv.tau, min=float(pk.min()),
                    max=float(pk.max()), slope=float(slope), slope_se=se,
                    growing=bool(pk.size >= MIN_TREND and slope - 2 * se > 0 and slope * pk.size > 0.1 * iv.mean),
@@ -290,7 +296,8 @@ def run_grid(study, st: dict, workers: int) -> list[dict]:
     work.mkdir(parents=True, exist_ok=True)
     pts = grid(st, d)
     first = list({p["key"]: p for p in pts if not p["motor"]}.values())     # one run per distinct point
-    first.sort(key=lambda p: (not any(o.endswith("damping=0.0") for o in p["overrides"]), not p["reversed"]))
+    first.sort(key=lambda p: (-sum(p["revs"]), not any(o.endswith("damping=0.0") for o in p["overrides"]),
+                              not p["reversed"]))                              # the long ones first
     n_motor = len({p["key"] for p in pts if p["motor"]})
     n, show = len(first) + n_motor, progress_enabled()
     study.stage(f"{n} distinct points ({len(pts)} in the figures), {st['transient_revs']} + {st['steady_revs']} "
@@ -306,7 +313,7 @@ def run_grid(study, st: dict, workers: int) -> list[dict]:
     rest = list({p["key"]: p for p in pts if p["motor"]}.values())
     runs.update({r["key"]: r for r in study.map(run_point, [(p, st, str(work), show, len(first) + i + 1, n)
                                                             for i, p in enumerate(rest)], workers)})
-    return [dict(runs[p["key"]], **{k: v for k, v in p.items() if k not in ("overrides", "motor")}) for p in pts]
+    return [dict(runs[p["key"]], **{k: v for k, v in p.items() if k not in ("overrides", "motor", "revs")}) for p in pts]
 
 
 def tables(records: list[dict]) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -522,7 +529,7 @@ def fig_friction(rep, summary: pd.DataFrame) -> None:
 def fig_revolutions(rep, summary: pd.DataFrame, peaks: pd.DataFrame) -> None:
     """The per-revolution peaks of the points that grow, beside the scene's reference points."""
     ok = summary[summary["success"].astype(bool)]
-    keys = list(ok[ok["growing"].astype(bool)]["key"])[:8]
+    keys = list(ok[ok["sweep"] == "long run"]["key"]) + list(ok[ok["growing"].astype(bool)]["key"])[:6]
     keys += list(ok[(ok["sweep"] == "damping") & np.isclose(ok["x"], 1.0) & ok["base"].str.startswith("f=")]["key"])
     if not keys or not len(peaks):
         return
@@ -531,10 +538,12 @@ def fig_revolutions(rep, summary: pd.DataFrame, peaks: pd.DataFrame) -> None:
         r = ok[ok["key"] == k].iloc[0]
         p = peaks[peaks["key"] == k]
         ax.plot(p["rev"], p["peak"], marker=".", label=f"{r['base']} {r['sweep']} = {r['x']:g} {r['series']}".rstrip())
-    ax.set_xlabel("steady revolution (after the transient)")
+    ax.set_xlabel("revolution after the transient (the long runs: after the assembled start)")
     ax.set_ylabel("peak |rod ω| [rad/s]")
     ax.legend(fontsize=6)
-    rep.figure(fig, caption="Located maximum of |rod omega| in each steady revolution.")
+    rep.figure(fig, caption="Located maximum of |rod omega| in each steady revolution: the long undamped runs "
+                            "(from the assembled state), the points flagged as still growing, and the scene's own "
+                            "choices at f = 0 and 0.05.")
 
 
 def paper_page(rep, summary: pd.DataFrame, prov: dict | None = None) -> None:
