@@ -21,12 +21,12 @@ from pathlib import Path
 
 from nld.errors import InputError, SceneError
 from nld.laws.law import contact_laws
-from nld.model.scene_model import (DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES, MODULATIONS,
-                          Body, Contact, Driver, Friction, Joint, Load, Scene)
+from nld.model.scene_model import (CONTROL_METHODS, DRIVER_MODES, FRICTION_LAWS, JOINT_TYPES, LOAD_TYPES,
+                          MODULATIONS, Body, Contact, Controller, Driver, Friction, Joint, Load, Scene)
 
 __all__ = ["builtin_scenes", "scene_path", "load_scene", "resolve_scene", "parse_override", "apply_overrides",
            "scene_from_dict", "scene_to_dict", "format_scene", "validate",
-           "Scene", "Body", "Joint", "Contact", "Friction", "Driver", "Load"]
+           "Scene", "Body", "Joint", "Contact", "Friction", "Driver", "Load", "Controller"]
 
 GROUND = "ground"
 SCENE_NAME_RE = re.compile(r"[a-z0-9_]+")
@@ -37,7 +37,7 @@ TWO_PI = 2.0 * math.pi
 # ---------------------------------------------------------------------------------------------------
 # allowed keys of every table (the schema), in the order scene_to_dict writes them
 
-TOP_KEYS = ("scene", "ground", "bodies", "joints", "driver", "loads")
+TOP_KEYS = ("scene", "ground", "bodies", "joints", "driver", "loads", "controller")
 SCENE_KEYS = ("name", "description", "gravity", "source", "method", "rtol")
 GROUND_KEYS = ("points",)
 BODY_KEYS = ("mass", "inertia", "points", "angle0")
@@ -46,6 +46,7 @@ CONTACT_KEYS = ("law", "stiffness", "young", "poisson", "exponent", "restitution
                 "min_approach_velocity")
 FRICTION_KEYS = ("law", "mu", "v0", "v1", "tangential_damping", "mu_s")
 DRIVER_KEYS = ("joint", "mode", "speed", "angle0", "inertia", "torque", "torque_slope")
+CONTROLLER_KEYS = ("body", "signal", "method", "gain", "delay", "memory", "offset", "u_max")
 MODULATION_KEYS = ("modulation", "threshold", "table_angles", "table_values")
 LOAD_KEYS_BY_TYPE = {
     "force": ("type", "body", "point", "value") + MODULATION_KEYS,
@@ -97,6 +98,7 @@ _SCHEMA = _table(
     joints=_Named(_table(JOINT_KEYS, contact=_table(CONTACT_KEYS), friction=_table(FRICTION_KEYS)), "joint"),
     driver=_table(DRIVER_KEYS),
     loads=_Array(_table(LOAD_KEYS), "load"),
+    controller=_table(CONTROLLER_KEYS),
 )
 
 # ---------------------------------------------------------------------------------------------------
@@ -647,11 +649,44 @@ def scene_from_dict(raw: dict, source: str = "") -> Scene:
         raise SceneError("loads", lt, "must be an array of tables [[loads]]")
     loads = [_load(ld, f"loads.{i}", bodies, points_of, driver) for i, ld in enumerate(lt)]
 
+    # [controller]: a torque load on its body, appended after the file's loads
+    controller = None
+    if "controller" in raw:
+        controller = _controller(_table_of(raw, "controller", "controller"), bodies, len(loads))
+        loads.append(Load(type="torque", body=controller.body, value=controller.offset))
+
     _check_connected(bodies, joints)
 
     return Scene(name=name, description=description, gravity=gravity, ground_points=ground_points,
                  bodies=bodies, joints=joints, driver=driver, loads=loads, source=src,
-                 method=method, rtol=rtol)
+                 method=method, rtol=rtol, controller=controller)
+
+
+def _controller(c: dict, bodies: dict, index: int) -> Controller:
+    """[controller] (docs/scene-format.md): checked here except ``signal``, a state name that
+    only the compiled kernel knows (``nld control`` checks it)."""
+    path = "controller"
+    _check_keys(c, path, CONTROLLER_KEYS)
+    body = _get(c, "body", f"{path}.body", hint="the name of the body the torque acts on")
+    if not isinstance(body, str) or body not in bodies:
+        raise SceneError(f"{path}.body", body, "no body of that name; available: "
+                         + (", ".join(bodies) or "(none)"))
+    signal = _string(c.get("signal", ""), f"{path}.signal", "a state name such as \"rod.phi_dot\"")
+    delay = None
+    if c.get("delay") is not None:
+        delay = _num(c, "delay", path, "s", gt=0)
+    memory = _num(c, "memory", path, "-", 0.0)
+    if not 0.0 <= memory < 1.0:
+        raise SceneError(f"{path}.memory", c["memory"], "R must be in [0, 1) (0: Pyragas; EDFC "
+                         "weights period k by R^(k-1)) (-)")
+    u_max = None
+    if c.get("u_max") is not None:
+        u_max = _num(c, "u_max", path, "N m", gt=0)
+    return Controller(body=body, signal=signal,
+                      method=_choice(c, "method", path, CONTROL_METHODS, "pyragas"),
+                      gain=_num(c, "gain", path, "N m per unit of the signal", 0.0),
+                      delay=delay, memory=memory, offset=_num(c, "offset", path, "N m", 0.0),
+                      u_max=u_max, load=index)
 
 
 def _contact(c: dict, path: str) -> Contact:
@@ -872,8 +907,12 @@ def scene_to_dict(scene: Scene) -> dict:
     out["joints"] = joints
     if scene.driver is not None:
         out["driver"] = _dataclass_dict(scene.driver, DRIVER_KEYS, skip_none=False)
-    if scene.loads:
-        out["loads"] = [_load_dict(ld) for ld in scene.loads]
+    ctl = scene.controller
+    file_loads = [ld for i, ld in enumerate(scene.loads) if ctl is None or i != ctl.load]
+    if file_loads:
+        out["loads"] = [_load_dict(ld) for ld in file_loads]
+    if ctl is not None:
+        out["controller"] = _dataclass_dict(ctl, CONTROLLER_KEYS)
     return out
 
 
@@ -924,6 +963,8 @@ _UNITS = {
     "driver.torque_slope": "N m s/rad",
     "loads.*.threshold": "rad", "loads.*.table_angles": "rad", "loads.*.table_values": "-",
     "loads.*.stiffness": "N/m", "loads.*.free_length": "m", "loads.*.damping": "N s/m",
+    "controller.delay": "s", "controller.memory": "-", "controller.offset": "N m",
+    "controller.u_max": "N m",
 }
 
 

@@ -12,6 +12,7 @@ JOINT_TYPES = ("revolute", "prismatic")
 DRIVER_MODES = ("speed", "torque")
 LOAD_TYPES = ("force", "torque", "spring")
 MODULATIONS = ("constant", "crank_halves", "angle_threshold", "crank_table")
+CONTROL_METHODS = ("pyragas", "edfc", "ogy")
 
 
 @dataclass
@@ -91,6 +92,24 @@ class Load:
 
 
 @dataclass
+class Controller:
+    """A feedback torque on a body (issue 26, docs/control.md): the scene loader turns it into a
+    torque load of value ``offset`` (N m) on ``body``, appended after the file's loads at index
+    ``load``; ``nld control`` (nld.analysis.control, input "param") drives that load's value
+    ``loads.<load>.value``. With gain 0, or without ``nld control``, the torque is the constant
+    offset (default 0: the uncontrolled mechanism)."""
+    body: str
+    signal: str = ""                 # measured state, e.g. "rod.phi_dot" (checked by nld control)
+    method: str = "pyragas"          # pyragas | edfc | ogy
+    gain: float = 0.0                # N m per unit of the signal (delayed feedback)
+    delay: float | None = None       # s, tau; None: the target period (crank revolutions x period)
+    memory: float = 0.0              # R in [0, 1) (edfc)
+    offset: float = 0.0              # N m, the torque's constant part (OGY's parameter)
+    u_max: float | None = None       # N m, clip of |u - offset|; None: no clip
+    load: int = -1                   # index of the controller's torque load in Scene.loads
+
+
+@dataclass
 class Scene:
     name: str
     description: str = ""
@@ -103,6 +122,7 @@ class Scene:
     source: str = ""                 # file the scene came from, if any
     method: str = ""                 # recommended integrator (docs/performance.md); "" = dopri5
     rtol: float | None = None        # recommended relative tolerance; None = simulate's default
+    controller: Controller | None = None   # [controller]: its torque is loads[controller.load]
 
     @property
     def clearance_joints(self) -> list[Joint]:
