@@ -242,11 +242,15 @@ class DelayedRun:
 def run_delayed(system, fb: DelayedFeedback, duration: float, *, y0=None, z0=None, t0=None,
                 history=None, rtol: float = RTOL, samples_per_delay: int = 50,
                 t_break0: float | None = None, h0: float = 0.0, gain: float | None = None,
-                keep: float | None = None, max_log: int = 100_000) -> DelayedRun:
+                keep: float | None = None, max_log: int = 100_000,
+                chunk: float | None = None, progress=None) -> DelayedRun:
     """Integrate ``system`` under ``fb`` for ``duration`` from (t0, y0, z0) (defaults: the
     system's) with ``history`` (None: constant y0; a History, e.g. ``run.history`` of an earlier
     run, to continue it). Samples every tau / samples_per_delay. ``gain`` overrides fb.gain
-    (0: the uncontrolled system, history still recorded)."""
+    (0: the uncontrolled system, history still recorded). chunk: integrate in pieces of about
+    this time, each continuing the last from its history (the same run: control returns to
+    Python between pieces, so Ctrl-C is honoured and ``progress(t_done, duration)`` is called
+    after each)."""
     dur = _finite("duration", duration, "must be a positive time")
     if dur <= 0:
         raise InputError(f"duration = {duration!r}: must be a positive time")
@@ -257,15 +261,37 @@ def run_delayed(system, fb: DelayedFeedback, duration: float, *, y0=None, z0=Non
     dt = fb.delay / int(samples_per_delay)
     k = max(1, int(math.ceil(dur / dt - 1e-9)))
     te = t0 + np.minimum(np.arange(k + 1) * dt, dur)
-    out = dde(system.rhs, system.events, system.on_event, t0, y, te, False, system.p, z,
-              float(rtol), system.tolerance(rtol), float(h0), float(system.hmax), MAX_STEPS,
-              int(system.n_events), int(max_log), law, history,
-              event_samples=int(system.event_samples), t_break0=t_break0, keep=keep)
+    per = k if chunk is None else max(1, int(round(float(chunk) / dt)))
+    tb0 = float(t0 if t_break0 is None else t_break0)
+    Ys, Us, Ss, evt, evk, evd = [], [], [], [], [], []
+    i0, h, hist = 0, float(h0), history
+    while True:
+        i1 = min(k, i0 + per)
+        out = dde(system.rhs, system.events, system.on_event, float(te[i0]), y, te[i0:i1 + 1],
+                  False, system.p, z, float(rtol), system.tolerance(rtol), h,
+                  float(system.hmax), MAX_STEPS, int(system.n_events), int(max_log), law, hist,
+                  event_samples=int(system.event_samples), t_break0=tb0, keep=keep)
+        sl = slice(0 if i0 == 0 else 1, None)
+        Ys.append(out.Y[sl])
+        Us.append(out.U[sl, 0])
+        Ss.append(out.S[sl, 0])
+        n_ev = min(int(out.n_ev), int(max_log))
+        evt.append(out.ev_t[:n_ev].copy())
+        evk.append(out.ev_k[:n_ev].copy())
+        evd.append(out.ev_dir[:n_ev].copy())
+        if out.status != 0 or i1 >= k:
+            break
+        y, h, hist, i0 = out.Y[-1].copy(), out.h_last, out.history, i1
+        if progress is not None:
+            progress(float(te[i1] - t0), dur)
     msg = method_status_message("dopri5", out.status, out.t, out.stats)
-    n_ev = min(int(out.n_ev), int(max_log))
-    return DelayedRun(te, out.Y, out.U[:, 0], out.S[:, 0], z, out.history,
-                      float(t0 if t_break0 is None else t_break0), out.h_last,
-                      out.ev_t[:n_ev].copy(), out.ev_k[:n_ev].copy(), out.ev_dir[:n_ev].copy(),
+    if out.status != 0:
+        te = te[: sum(len(a) for a in Us)]
+    if progress is not None and out.status == 0:
+        progress(dur, dur)
+    return DelayedRun(te, np.vstack(Ys), np.concatenate(Us), np.concatenate(Ss), z,
+                      out.history, tb0, out.h_last, np.concatenate(evt), np.concatenate(evk),
+                      np.concatenate(evd),
                       int(out.status), "delay DOPRI5 (dde): " + msg.split(": ", 1)[-1],
                       {"controller": fb.to_dict(), "rtol": rtol, "duration": dur,
                        "samples_per_delay": int(samples_per_delay)})
@@ -397,6 +423,14 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
         hist = r.history
         ho = combine_histories(r.history, o.history, a, t - span_seg, shift=c)
         yo = y + a * (yn_o - y - c * _field_at(system, fb, law, r.history, t, y, z))
+        if getattr(system, "memory", np.zeros(0)).size:
+            # a contact law's memory (approach velocity at onset) follows the state, and a
+            # pull-back across an event surface is reported as the integrator would
+            # (nld.analysis.lyapunov: without it every renormalisation injected a force
+            # difference and lambda1 of slider_crank_olyaei came out 3-7x too large)
+            from nld.analysis.lyapunov import _cross_events, _rescale_memory
+            _rescale_memory(system, z, zo, a)
+            _cross_events(system, t, yn_o, yo, zo)
         h_r, h_o = r.h_last, o.h_last
     logs = logs[int(align):]
     lam = float(np.mean(logs) / interval)
@@ -482,14 +516,29 @@ def orbit_period_time(orbit) -> float:
     return math.nan
 
 
+def _wrap_angles(system, D: np.ndarray) -> np.ndarray:
+    """Differences D (..., n) with the system's angle states (``angle_states``: a scene's crank
+    and joint angles, whole turns one state) brought into [-pi, pi); others unchanged."""
+    idx = np.asarray(getattr(system, "angle_states", np.zeros(0, dtype=np.int64)), dtype=np.int64)
+    if idx.size:
+        D = np.array(D, dtype=float)
+        D[..., idx] -= 2.0 * math.pi * np.floor((D[..., idx] + math.pi) / (2.0 * math.pi))
+    return D
+
+
 def _distance_to_curve(system, Y, curve) -> float:
     """Largest over Y of the smallest scaled distance to the closed polyline through the points
-    of ``curve`` (each state projected on the two segments at its nearest vertex)."""
+    of ``curve`` (each state projected on the two segments at its nearest vertex). Angle states
+    are compared modulo 2 pi (each state is moved by whole turns to the curve's first point)."""
     s = system.scales
-    C = np.asarray(curve, dtype=float) / s
+    C = np.asarray(curve, dtype=float)
+    Y = np.asarray(Y, dtype=float)
+    Y = C[0] + _wrap_angles(system, Y - C[0])
+    C = C[0] + _wrap_angles(system, C - C[0])
+    C = C / s
     k = C.shape[0]
     best = 0.0
-    for yy in np.asarray(Y, dtype=float) / s:
+    for yy in Y / s:
         j = int(np.argmin(np.linalg.norm(C - yy, axis=1)))
         dmin = float(np.linalg.norm(C[j] - yy))
         for a, b in ((C[j - 1], C[j]), (C[j], C[(j + 1) % k])):
@@ -506,14 +555,20 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
                     duration: float | None = None, lyapunov_span: float | None = None,
                     target=None, y0=None, z0=None, rtol: float = RTOL,
                     samples_per_delay: int = 50, uncontrolled: bool = True,
-                    capture_fraction: float = CAPTURE_FRACTION) -> ControlResult:
+                    capture_fraction: float = CAPTURE_FRACTION,
+                    lyapunov_interval: float | None = None, d0: float = D0,
+                    chunk: float | None = None, progress=None) -> ControlResult:
     """Delayed-feedback control of ``system`` and its evidence (:class:`ControlResult`).
 
     From (y0, z0) (default the system's) the uncontrolled system runs ``transient`` (its history
     recorded: the controller measures the real past), then the controlled one ``duration``
     (default 60 tau); lambda1 of the closed loop over ``lyapunov_span`` (default 40 tau) from the
     run's end, and of the uncontrolled system from the transient's end (``uncontrolled``).
-    target: the orbit to compare with (a PeriodicOrbit, or an (k, n) array of its states)."""
+    target: the orbit to compare with (a PeriodicOrbit, or an (k, n) array of its states).
+    lyapunov_interval (default tau) and d0: :func:`delayed_lyapunov`'s renormalisation interval
+    and separation (a scene: intervals of a fraction of a revolution and d0 well above the
+    integration's noise, docs/control.md "Control of a clearance mechanism"). chunk, progress:
+    as :func:`run_delayed` (progress(stage, t_done, t_total), stage "transient" or "control")."""
     tau = fb.delay
     duration = 60.0 * tau if duration is None else float(duration)
     lspan = 40.0 * tau if lyapunov_span is None else float(lyapunov_span)
@@ -523,16 +578,26 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
     hist, tb0, h0 = None, None, 0.0
     lam_u = DelayLyapunov(math.nan, math.nan, math.nan, 0, np.zeros(0), "skipped", "")
     if transient > 0:
-        pre = run_delayed(system, fb, transient, y0=y, z0=z, t0=t0, rtol=rtol, gain=0.0,
-                          samples_per_delay=samples_per_delay)
+        # the free transient runs the channel with R = 0 (v = s(t - tau) exactly), so an EDFC
+        # starts from the last period's signal, not from the constant history before t0, whose
+        # error would decay only as R^k (R = 0.9: 35 % left after 10 periods; on
+        # slider_crank_olyaei an initial effort of 94 N m instead of 5)
+        pre = run_delayed(system, fb.with_(memory=0.0), transient, y0=y, z0=z, t0=t0, rtol=rtol,
+                          gain=0.0,
+                          samples_per_delay=samples_per_delay, chunk=chunk,
+                          progress=None if progress is None else
+                          (lambda a, b: progress("transient", a, b)))
         _check_run(pre, f"{system.name}: uncontrolled transient")
         y, z, hist, tb0, h0 = pre.y.copy(), pre.z.copy(), pre.history, pre.t_break0, pre.h_last
         t0 = t0 + float(transient)
     if uncontrolled:
         lam_u = delayed_lyapunov(system, fb, lspan, y0=y, z0=z, t0=t0, history=hist,
-                                 t_break0=tb0, gain=0.0, rtol=rtol)
+                                 t_break0=tb0, gain=0.0, rtol=rtol, interval=lyapunov_interval,
+                                 d0=d0)
     run = run_delayed(system, fb, duration, y0=y, z0=z, t0=t0, history=hist, rtol=rtol,
-                      samples_per_delay=samples_per_delay, t_break0=tb0, h0=h0)
+                      samples_per_delay=samples_per_delay, t_break0=tb0, h0=h0, chunk=chunk,
+                      progress=None if progress is None else
+                      (lambda a, b: progress("control", a, b)))
     _check_run(run, f"{system.name}: controlled run")
     spd = int(samples_per_delay)
     n_per = (run.u.size - 1) // spd
@@ -548,8 +613,8 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         captured = int(k)
     last = run.Y[-spd - 1:]
     prev = run.Y[-2 * spd - 1: -spd]
-    periodicity = float(np.max(np.abs((last - prev) / system.scales))) if run.Y.shape[0] > 2 * spd \
-        else math.nan
+    periodicity = float(np.max(np.abs(_wrap_angles(system, last - prev) / system.scales))) \
+        if run.Y.shape[0] > 2 * spd else math.nan
     dist = None
     if target is not None:
         curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
@@ -560,7 +625,8 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         sel = (run.ev_t >= tq) & (run.ev_dir > 0)
         onsets = float(np.count_nonzero(sel)) / (0.25 * duration / tau)
     lam_c = delayed_lyapunov(system, fb, lspan, y0=run.y, z0=run.z, t0=run.t[-1],
-                             history=run.history, t_break0=run.t_break0, rtol=rtol)
+                             history=run.history, t_break0=run.t_break0, rtol=rtol,
+                             interval=lyapunov_interval, d0=d0)
     unc = np.nanmax([lam_c.uncertainty, lam_u.uncertainty]) if uncontrolled else lam_c.uncertainty
     ok = lam_c.status == "ok" and (lam_c.lambda1 + (lam_c.uncertainty or 0) < 0) \
         and captured is not None
@@ -572,7 +638,8 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
            + (f" (captured after {captured} periods)" if captured is not None else
               " (not captured)"))
     settings = {"controller": fb.to_dict(), "transient": float(transient),
-                "duration": duration, "lyapunov_span": lspan, "rtol": rtol, "d0": D0,
+                "duration": duration, "lyapunov_span": lspan, "rtol": rtol, "d0": d0,
+                "lyapunov_interval": tau if lyapunov_interval is None else lyapunov_interval,
                 "samples_per_delay": spd, "capture_fraction": capture_fraction,
                 "segment_samples": SEGMENT_SAMPLES}
     return ControlResult(lam_u.lambda1, lam_c.lambda1, float(unc), e0, e1, captured, dist,
@@ -599,12 +666,14 @@ class DomainScan:
 def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=None, z0=None,
                      history=None, t0=None, transient: float | None = None,
                      span: float | None = None, rtol: float = RTOL,
-                     progress=None) -> DomainScan:
+                     progress=None, interval: float | None = None,
+                     d0: float = D0) -> DomainScan:
     """lambda1 of the closed loop against the gain K (and memory R), the classic figure of the
     delayed-feedback literature (Pyragas 1992, fig. 3; Socolar et al. 1994). Each point starts
     from the same (y0, z0, history) (best: a point on the target orbit with its own past as the
     history, e.g. a controlled run's end), runs ``transient`` (default 20 tau) under control and
-    estimates lambda1 over ``span`` (default 20 tau). progress: optional callable (done, total)."""
+    estimates lambda1 over ``span`` (default 20 tau). progress: optional callable (done, total).
+    interval, d0: :func:`delayed_lyapunov`'s renormalisation interval and separation."""
     gains = np.atleast_1d(np.asarray(gains, dtype=float))
     if not np.all(np.isfinite(gains)):
         raise InputError(f"gains = {gains.tolist()!r}: must be finite numbers")
@@ -632,7 +701,7 @@ def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=No
                         y = None
                 if y is not None or transient <= 0:
                     r = delayed_lyapunov(system, f, span, y0=y, z0=z, t0=tt, history=h,
-                                         t_break0=tb0, rtol=rtol)
+                                         t_break0=tb0, rtol=rtol, interval=interval, d0=d0)
                     lam[a, b], se[a, b] = r.lambda1, r.uncertainty
             except SolveError:
                 pass
@@ -640,7 +709,8 @@ def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=No
             if progress is not None:
                 progress(done, total)
     return DomainScan(gains, mems, lam, se, {"controller": fb.to_dict(), "transient": transient,
-                                            "span": span, "rtol": rtol, "d0": D0})
+                                            "span": span, "rtol": rtol, "d0": d0,
+                                            "interval": tau if interval is None else interval})
 
 
 # ---------------------------------------------------------------- Nakajima
@@ -720,6 +790,17 @@ def _ackermann(M: np.ndarray, w: np.ndarray) -> np.ndarray:
     want = np.where(np.abs(mu) > 1.0, 0.0, mu)
     C = np.column_stack([np.linalg.matrix_power(M, j) @ w for j in range(n)])
     if np.linalg.cond(C) > 1e12:
+        # not controllable as a whole (a scene in permanent contact: the contact memory is a
+        # neutral direction no parameter reaches), but one real unstable eigenvalue may still be:
+        # OGY's own formula k = lambda_u f_u / (f_u . w) (f_u its left eigenvector) moves it to 0
+        # and keeps every other eigenvalue (f_u is orthogonal to their right eigenvectors)
+        lam, F = np.linalg.eig(M.T)
+        unstable = np.flatnonzero(np.abs(lam) > 1.0)
+        if unstable.size == 1 and abs(lam[unstable[0]].imag) <= 1e-12 * abs(lam[unstable[0]]):
+            fu = np.real(F[:, unstable[0]])
+            fw = float(fu @ w)
+            if abs(fw) > 1e-9 * float(np.linalg.norm(fu) * np.linalg.norm(w)):
+                return float(np.real(lam[unstable[0]])) * fu / fw
         raise InputError("parameter: the orbit is not controllable through this parameter (its "
                          "sensitivity has no component along an unstable direction)")
     coeffs = np.real(np.poly(want))            # phi(x) = x^n + c1 x^(n-1) + ...
