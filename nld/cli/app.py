@@ -8,7 +8,7 @@ import shlex
 import signal
 import sys
 
-from nld.cli import attractors, bifurcation, chaos_map, hard_cases, lyapunov, orbits, poincare, \
+from nld.cli import attractors, bifurcation, chaos_map, control, hard_cases, lyapunov, orbits, poincare, \
     scenes, simulate, spectrum, study
 from nld.cli.args import PROG, Parser, UsageError, print_error, print_interrupted, progress_args
 from nld.errors import InputError, Interrupted, SceneError, SolveError
@@ -16,7 +16,7 @@ from nld.version import __version__
 
 # the sub-commands in the order of ``nld --help``
 COMMANDS = (scenes, simulate, poincare, bifurcation, spectrum, chaos_map, lyapunov, orbits,
-            attractors, hard_cases, study)
+            attractors, control, hard_cases, study)
 
 
 def build_parser() -> Parser:
