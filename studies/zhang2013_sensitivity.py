@@ -68,7 +68,7 @@ FULL = dict(_RUN, transient_revs=10, steady_revs=20,
             frictions=[0.0, 0.01, 0.02, 0.05, 0.1],
             readings=["coulomb", "coulomb, undamped", "ambrosio", "eq. 17 literal", "eq. 17 literal, damping x3"],
             clearance_sweeps=["damping", "M43", "K2", "pairs"], long_revs=150)
-QUICK = dict(_RUN, transient_revs=1, steady_revs=3, samples_per_rev=3600, workers=2,
+QUICK = dict(_RUN, transient_revs=1, steady_revs=3, samples_per_rev=3600, workers=1,
              bases=["f=0", "f=0.05"], damping=[0.0, 1.0], m43=[4800.0], k2=[3.91e7], l4=[], R=[],
              motor_inertia=[0.1], motor_slope=[], motor=(0.1, 100.0), pair_damping=[], pair_m43=[], literal_damping=[],
              frictions=[0.0, 0.05], readings=["coulomb", "eq. 17 literal"], clearance_sweeps=[], long_revs=0)

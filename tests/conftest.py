@@ -23,6 +23,7 @@ LONGEST_FIRST = [          # seconds in a cold run at stop 22 (sum of setup + ca
     "test_scenes_family.py",     # 10 (60)
     "test_compile_once.py",      # 10 (new)
     "test_study_chaos_onset.py", # 10 (12)
+    "test_study_zhang2013_sensitivity.py",  # 6 (new: 8.0 s wall, 4.7 s CPU at load 4.4; no integration)
 ]
 
 
