@@ -31,10 +31,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nld.errors import InputError, SolveError
-from nld.integrators import method_status_message
 from nld.integrators.core import as_solution
 from nld.integrators.tangent import N_DIAG, DG_DIV, DG_LOGDET, DG_GRAZE, crossing_diag
-from nld.systems.core import wrap_angles as wrap_angles_of
+from nld.systems.core import failure_message, wrap_angles as wrap_angles_of
 
 __all__ = ["MapStep", "SectionRun", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
            "contact_events"]
@@ -250,8 +249,8 @@ class _FlowMap:
                                      float(sysm.hmax), self.step_budget(), int(sysm.n_events),
                                      _MAX_LOG))
         if out.status != 0 or out.n_out < te.size:
-            raise SolveError(f"{sysm.name}: " + method_status_message(sysm.method, out.status,
-                                                                        out.t, out.stats)
+            raise SolveError(f"{sysm.name}: " + failure_message(sysm, out, float(t0), y, z,
+                                                                  self.rtol, atol)
                              + (f" (the map step's budget is {self.step_budget()} steps: 20x the "
                                 f"most a step has taken)" if out.status == -1 and self.typical_steps
                                 else ""))
@@ -386,8 +385,8 @@ class StroboscopicMap(_FlowMap):
         for j, e in enumerate(self.contacts):
             onsets[j] = int(np.count_nonzero((k == e) & (d > 0)))
         ok = out.status == 0 and m == n
-        msg = "" if ok else f"{sysm.name}: " + method_status_message(sysm.method, out.status,
-                                                                       out.t, out.stats)
+        msg = "" if ok else f"{sysm.name}: " + failure_message(sysm, out, float(t0), y, zz,
+                                                                 self.rtol, atol)
         z_end = np.array(Z[-1]) if m else np.array(zz)
         return SectionRun(X, z_end, onsets, gaps, bool(ok), msg, y)
 
