@@ -232,6 +232,9 @@ def cmd_control(args) -> int:
     def say(text):
         if shown:
             print(f"  {text}", file=sys.stderr, flush=True)
+    if st["method"] == "ogy" and args.gains is not None:
+        raise InputError("--gains: the stability domain is of delayed feedback (--method pyragas "
+                         "or edfc); OGY's closed-loop multipliers are printed instead")
     S = SceneSystem(scene)
     if S.period is None:
         raise InputError(f"scene {S.name!r} has no crank speed: nld control needs a driven crank "
@@ -249,9 +252,6 @@ def cmd_control(args) -> int:
         fb = delayed_feedback(S, st["gain"], tau, st["signal"], memory=st["memory"],
                               input="param", target=target_param,
                               u_max=math.inf if st["u_max"] is None else st["u_max"])
-    elif args.gains is not None:
-        raise InputError("--gains: the stability domain is of delayed feedback (--method pyragas "
-                         "or edfc); OGY's closed-loop multipliers are printed instead")
     kept = ["nothing kept (no result finished)"]
     try:
         target, how = target_orbit(S, P, args.transient, args.rtol, say)
