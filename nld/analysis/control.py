@@ -358,7 +358,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
                      gain: float | None = None, rtol: float = RTOL, d0: float = D0,
                      interval: float | None = None, segment_samples: int = SEGMENT_SAMPLES,
                      direction=None, transverse: bool | None = None,
-                     align: int = 2) -> DelayLyapunov:
+                     align: int = 2, hold_memory: bool = False) -> DelayLyapunov:
     """lambda1 of the closed loop over ``span`` (time units) by two trajectories with whole-
     segment renormalisation (module docstring), from (t0, y0, z0, history) (a run's end: pass
     ``run.t[-1], run.y, run.z, run.history, run.t_break0``). interval: renormalisation interval
@@ -369,7 +369,11 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     renormalisation, so that the exponent is the largest *non-trivial* one: on a periodic orbit
     of an autonomous flow (or autonomous delay equation) the trivial one is exactly 0, and a
     captured orbit shows as lambda1 = 0 without this. align: intervals run first and not
-    counted (the perturbation turning into the most unstable direction)."""
+    counted (the perturbation turning into the most unstable direction). hold_memory: give the
+    copy the reference's contact memory at every renormalisation (where both are in contact):
+    lambda1 *conditional on the memory*, the convention of lyapunov_tangent in permanent contact,
+    where the memory is never reset and its direction is neutral (multiplier 1 exactly:
+    docs/orbits.md, "Memory state"); default False: the memory follows the state (Benettin)."""
     if transverse is None:
         transverse = getattr(system, "period", None) is None
     tau = fb.delay
@@ -429,7 +433,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
             # (nld.analysis.lyapunov: without it every renormalisation injected a force
             # difference and lambda1 of slider_crank_olyaei came out 3-7x too large)
             from nld.analysis.lyapunov import _cross_events, _rescale_memory
-            _rescale_memory(system, z, zo, a)
+            _rescale_memory(system, z, zo, 0.0 if hold_memory else a)
             _cross_events(system, t, yn_o, yo, zo)
         h_r, h_o = r.h_last, o.h_last
     logs = logs[int(align):]
@@ -439,7 +443,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
                          f"lambda1 = {lam:.4g} +- {se:.2g} per time unit over {n_int} intervals",
                          {"span": n_int * interval, "interval": interval, "d0": d0, "rtol": rtol,
                           "segment_samples": int(segment_samples), "transverse": bool(transverse),
-                          "align": int(align),
+                          "align": int(align), "hold_memory": bool(hold_memory),
                           "gain": fb.gain if gain is None else float(gain),
                           "controller": fb.to_dict()})
 
@@ -620,13 +624,18 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
         dist = _distance_to_curve(system, last, curve)
     onsets = None
+    if int(system.n_events) > 0:
+        onsets = 0.0
     if int(system.n_events) > 0 and run.ev_t.size:
         tq = run.t[-1] - 0.25 * duration
         sel = (run.ev_t >= tq) & (run.ev_dir > 0)
         onsets = float(np.count_nonzero(sel)) / (0.25 * duration / tau)
+    # permanent contact on the controlled motion (no onset in the last quarter, a contact law
+    # with memory): lambda1 conditional on the memory, whose direction is neutral there
+    hold = bool(getattr(system, "memory", np.zeros(0)).size) and onsets == 0.0
     lam_c = delayed_lyapunov(system, fb, lspan, y0=run.y, z0=run.z, t0=run.t[-1],
                              history=run.history, t_break0=run.t_break0, rtol=rtol,
-                             interval=lyapunov_interval, d0=d0)
+                             interval=lyapunov_interval, d0=d0, hold_memory=hold)
     unc = np.nanmax([lam_c.uncertainty, lam_u.uncertainty]) if uncontrolled else lam_c.uncertainty
     ok = lam_c.status == "ok" and (lam_c.lambda1 + (lam_c.uncertainty or 0) < 0) \
         and captured is not None
@@ -640,6 +649,8 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
     settings = {"controller": fb.to_dict(), "transient": float(transient),
                 "duration": duration, "lyapunov_span": lspan, "rtol": rtol, "d0": d0,
                 "lyapunov_interval": tau if lyapunov_interval is None else lyapunov_interval,
+                "lyapunov_controlled_memory": "held (conditional on the contact memory: "
+                "permanent contact)" if hold else "follows the state",
                 "samples_per_delay": spd, "capture_fraction": capture_fraction,
                 "segment_samples": SEGMENT_SAMPLES}
     return ControlResult(lam_u.lambda1, lam_c.lambda1, float(unc), e0, e1, captured, dist,
@@ -673,7 +684,9 @@ def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=No
     from the same (y0, z0, history) (best: a point on the target orbit with its own past as the
     history, e.g. a controlled run's end), runs ``transient`` (default 20 tau) under control and
     estimates lambda1 over ``span`` (default 20 tau). progress: optional callable (done, total).
-    interval, d0: :func:`delayed_lyapunov`'s renormalisation interval and separation."""
+    interval, d0: :func:`delayed_lyapunov`'s renormalisation interval and separation. Where the
+    transient's second half has no contact onset (permanent contact) lambda1 is conditional on
+    the contact memory (``hold_memory``)."""
     gains = np.atleast_1d(np.asarray(gains, dtype=float))
     if not np.all(np.isfinite(gains)):
         raise InputError(f"gains = {gains.tolist()!r}: must be finite numbers")
@@ -691,17 +704,24 @@ def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=No
         for b, K in enumerate(gains):
             f = fb.with_(memory=float(R), gain=float(K))
             y, z, h, tt, tb0 = y0, z0, history, t0, None
+            hold = False
             try:
                 if transient > 0:
                     run = run_delayed(system, f, transient, y0=y0, z0=z0, t0=t0, history=history,
                                       rtol=rtol, samples_per_delay=8)
                     if run.status == 0:
                         y, z, h, tt, tb0 = run.y, run.z, run.history, run.t[-1], run.t_break0
+                        # permanent contact over the transient's second half: lambda1
+                        # conditional on the contact memory (control_delayed, docs/control.md)
+                        late = run.ev_t >= run.t[-1] - 0.5 * transient
+                        hold = bool(getattr(system, "memory", np.zeros(0)).size) and \
+                            int(system.n_events) > 0 and not np.any(late & (run.ev_dir > 0))
                     else:
                         y = None
                 if y is not None or transient <= 0:
                     r = delayed_lyapunov(system, f, span, y0=y, z0=z, t0=tt, history=h,
-                                         t_break0=tb0, rtol=rtol, interval=interval, d0=d0)
+                                         t_break0=tb0, rtol=rtol, interval=interval, d0=d0,
+                                         hold_memory=hold)
                     lam[a, b], se[a, b] = r.lambda1, r.uncertainty
             except SolveError:
                 pass
