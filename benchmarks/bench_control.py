@@ -22,6 +22,12 @@ With ``--evidence`` (default on; ``--no-evidence`` skips it) the same file also 
 quoted in docs/control.md: the delay integrator against the method-of-steps closed form and its
 order, the Rössler period-1 UPO (periodic_orbit) and its Pyragas / EDFC control (lambda1, effort,
 distance to the UPO), the stability domain lambda1(K, R), and OGY on the Hénon map.
+
+``--scene-scan`` runs only the issue's speed target instead: the 30-gain stability domain of
+slider_crank_olyaei (``nld control slider_crank_olyaei --set joints.B.clearance=2e-4 --set
+joints.B.friction.mu=0 --gains 0.1:3:30``: the default EDFC run, then lambda1 at each gain from its
+end), wall and CPU time, written as the section "Scene: 30-gain stability domain" of the results
+file (the rest of the file kept).
 """
 from __future__ import annotations
 
@@ -80,7 +86,12 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=10)
     ap.add_argument("--out", default=str(HERE / "results" / "control.md"))
     ap.add_argument("--evidence", action=argparse.BooleanOptionalAction, default=True)
+    ap.add_argument("--scene-scan", action="store_true",
+                    help="only the 30-gain stability domain of slider_crank_olyaei (a section of "
+                         "--out)")
     args = ap.parse_args(argv)
+    if args.scene_scan:
+        return scene_scan(args.out)
     rows = []
     S = C.rossler()
     tau = 5.88
@@ -128,6 +139,59 @@ def main(argv=None) -> int:
     write_table(args.out, head, table)
     print("\n".join(table))
     return 0
+
+
+SCAN_SECTION = "## Scene: 30-gain stability domain (nld control --gains)"
+SCAN_ARGV = ["control", "slider_crank_olyaei", "--set", "joints.B.clearance=2e-4", "--set",
+             "joints.B.friction.mu=0", "--gains", "0.1:3:30", "--json", "--quiet"]
+
+
+def scene_scan(out) -> int:
+    """The issue's target: a 30-gain stability-domain scan of slider_crank_olyaei in <= 5 min on
+    2 cores (it runs on one: the gains one after the other)."""
+    import contextlib
+    import io
+    import json
+    from nld.cli import main as nld_main
+    buf = io.StringIO()
+    w, c = time.perf_counter(), time.process_time()
+    with contextlib.redirect_stdout(buf):
+        rc = nld_main(list(SCAN_ARGV))
+    wall, cpu_s = time.perf_counter() - w, time.process_time() - c
+    d = json.loads(buf.getvalue()) if rc == 0 else None
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    lines = [SCAN_SECTION, "",
+             f"{now}, {platform.machine()}, {os.cpu_count()} CPUs, load {load:.2f}; command: "
+             f"`python benchmarks/bench_control.py --scene-scan` = `nld "
+             f"{' '.join(SCAN_ARGV[:-2])}` (one process, the gains one after the other), warm "
+             f"kernel cache. Issue 26 target: <= 5 min on 2 cores.", "",
+             f"exit status {rc}; **wall {wall:.1f} s, CPU {cpu_s:.1f} s** (the default controlled "
+             f"run and its two lambda1 included)."]
+    if d is not None:
+        s, sd = d["settings"], d["stability_domain"]
+        lines += ["", f"Controlled run ({s['transient_revs']} free + {s['revs']} controlled "
+                      f"revolutions, lambda1 over {s['lyapunov_revs']}, controlled: memory "
+                      f"{s['lyapunov_controlled_memory']}): lambda1 "
+                      f"{d['lambda1_uncontrolled']:.3f} +- "
+                      f"{s['uncertainty_uncontrolled']:.2f} -> {d['lambda1_controlled']:.3f} +- "
+                      f"{s['uncertainty_controlled']:.2f} per revolution, effort "
+                      f"{d['effort_rms_initial']:.3g} -> {d['effort_rms_final']:.3g} N m, "
+                      f"captured at revolution {d['captured_at_revolution']}.", "",
+                  f"lambda1 per revolution +- SE (R = {sd['memory']:g}; from the controlled run's "
+                  f"end, {sd['transient_revs']} revolutions under each gain, then "
+                  f"{sd['span_revs']}):", "",
+                  "| K (N m s/rad) | lambda1 | SE | lambda1 + SE < 0 |", "|---|---|---|---|"]
+        for k, lam, se, ok in zip(sd["gains"], sd["lambda1"], sd["uncertainty"], sd["stable"]):
+            f = (lambda x: "n/a" if x is None else f"{x:.3f}")
+            lines.append(f"| {k:.3g} | {f(lam)} | {f(se)} | {'yes' if ok else 'no'} |")
+    p = Path(out)
+    text = p.read_text(encoding="utf-8") if p.exists() else ""
+    if SCAN_SECTION in text:
+        text = text[:text.index(SCAN_SECTION)].rstrip("\n") + "\n"
+    p.write_text((text + "\n" if text else "") + "\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+    return rc
 
 
 def _zero_rhs():

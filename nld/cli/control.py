@@ -40,7 +40,7 @@ joints.B.clearance=2e-4 --set joints.B.friction.mu=0 (chaotic, lambda1 about 4 p
 about 4 contact onsets per revolution) the defaults -- edfc on rod.phi_dot, torque on the rod,
 K = 1 N m s/rad, R = 0.9, tau = 1 revolution -- capture a period-1 orbit in permanent contact
 (an unstable orbit of the free mechanism, flip multiplier -8 to -16) with the effort falling to
-under 2 %% of its first value: 8 of 8 starts within 300 revolutions (after 31 to 273; when is
+under 2 % of its first value: 8 of 8 starts within 300 revolutions (after 31 to 273; when is
 chance: the chaotic motion must pass near the orbit); pyragas (R = 0) does not (the flip
 multiplier is too large for R = 0), and ogy does not capture there (the chaotic motion, with its
 impacts, never comes near that permanent-contact orbit). On a permanent-contact motion the
@@ -48,7 +48,7 @@ controlled lambda1 is conditional on the contact memory (a neutral direction the
 orbit with an odd number of real multipliers > 1 (Nakajima 1997): the target's verdict is
 printed. Prints lambda1 of the free and the controlled system (per revolution; two trajectories,
 whole-segment renormalisation), the effort (rms of u over the first and the last period), the
-revolution from which the effort stays below 5 %% of its first value, the distance (scaled by the
+revolution from which the effort stays below 5 % of its first value, the distance (scaled by the
 state scales) of the last period to the orbit periodic_orbit finds from the controlled motion
 and to the target found before control, and the contact onsets per period."""
 
