@@ -136,8 +136,8 @@ def test_control_holds_the_unstable_orbit_that_the_free_mechanism_leaves():
                          rtol=1e-8)
     ctl = C.run_delayed(S, fb, 6 * T, y0=y0, z0=z0.copy(), t0=0.0, history=hist, rtol=1e-8)
     assert free.status == 0 and ctl.status == 0
-    d_free = C._distance_to_curve(S, free.Y[-51:], curve)
-    d_ctl = C._distance_to_curve(S, ctl.Y[-51:], curve)
+    d_free = C.distance_to_orbit(S, free.Y[-51:], curve)
+    d_ctl = C.distance_to_orbit(S, ctl.Y[-51:], curve)
     assert d_free > 1.0 and d_ctl < 0.05, (d_free, d_ctl)
     eff = np.sqrt(np.mean(ctl.u[1:].reshape(6, 50) ** 2, axis=1))
     assert eff[-1] < eff[0] and eff[0] < 0.5             # N m: small, and falling

@@ -67,7 +67,8 @@ from nld.integrators.delay import (PARAM, STATE, DelayLaw, History, combine_hist
 __all__ = ["DelayedFeedback", "delayed_feedback", "pyragas", "edfc", "DelayedRun",
            "run_delayed", "DelayLyapunov", "delayed_lyapunov", "ControlResult",
            "control_delayed", "DomainScan", "stability_domain", "OddNumberVerdict",
-           "odd_number_limitation", "OGYResult", "ogy", "orbit_states", "rossler",
+           "odd_number_limitation", "OGYResult", "ogy", "orbit_states", "distance_to_orbit",
+           "rossler",
            "RTOL", "D0", "SEGMENT_SAMPLES", "CAPTURE_FRACTION"]
 
 RTOL = 1e-9               # relative tolerance of the delay integrations (atol: system.tolerance)
@@ -555,6 +556,14 @@ def _distance_to_curve(system, Y, curve) -> float:
     return best
 
 
+def distance_to_orbit(system, Y, target) -> float:
+    """The largest scaled distance of the states Y (k, n) to a target orbit's curve (a
+    PeriodicOrbit, or an (m, n) array of its states), angles modulo 2 pi: the ``orbit_distance``
+    of :class:`ControlResult`."""
+    curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
+    return _distance_to_curve(system, Y, curve)
+
+
 def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
                     duration: float | None = None, lyapunov_span: float | None = None,
                     target=None, y0=None, z0=None, rtol: float = RTOL,
@@ -807,6 +816,8 @@ def _ackermann(M: np.ndarray, w: np.ndarray) -> np.ndarray:
     controllable."""
     n = M.shape[0]
     mu = np.linalg.eigvals(M)
+    if not np.any(np.abs(mu) > 1.0):
+        return np.zeros(n)          # a stable orbit: nothing to move, no feedback
     want = np.where(np.abs(mu) > 1.0, 0.0, mu)
     C = np.column_stack([np.linalg.matrix_power(M, j) @ w for j in range(n)])
     if np.linalg.cond(C) > 1e12:
@@ -909,6 +920,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     z = m.z0.copy() if z0 is None else np.array(z0, dtype=float)
     X = np.empty((n_iter + 1, m.n))
     X[0] = x
+    Zs = [None if z is None else np.array(z, dtype=float)]      # the discrete state at each X[k]
     dps = np.zeros(n_iter)
     act = np.zeros(n_iter, dtype=bool)
     near = np.zeros(n_iter + 1)
@@ -931,6 +943,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         st = _step_p(m, par, x, z, dp) if dp != 0.0 else m.step(x, z)
         x, z = st.x, st.z
         X[k + 1] = x
+        Zs.append(None if z is None else np.array(z, dtype=float))
     near[n_iter] = min(float(np.linalg.norm(m.difference(x, orbit.points[i]) / s))
                        for i in range(q))
     inside = near < radius
@@ -954,7 +967,9 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         for k in range(n_iter - win, n_iter):
             i = int(np.argmin([np.linalg.norm(m.difference(X[k], orbit.points[j]) / s)
                                for j in range(q)]))
-            J = m.step(X[k], None if not m.z0.size else orbit.z[i], jacobian=True).M
+            # the Jacobian at the iterate with its own discrete state (contact modes, memory):
+            # the orbit's z at another point gave a scene's map the wrong contact mode
+            J = m.step(X[k], None if not m.z0.size else Zs[k], jacobian=True).M
             if act[k]:
                 J = J - np.outer(W[i], K[i])
             v = J @ v

@@ -183,13 +183,13 @@ def target_orbit(S, period, transient, rtol, say):
     """The period-``period`` orbit to control: Newton from the state after ``transient``
     revolutions, else the close returns of the section (find_orbits, a light search). InputError
     when none of prime period ``period`` is found (a one-line error, exit 2)."""
-    from nld.analysis.orbits import _prime_period, find_orbits, periodic_orbit
+    from nld.analysis.orbits import find_orbits, periodic_orbit
     say(f"target: period-{period} orbit by Newton from the state after {transient} revolutions")
     from nld.errors import SolveError
     try:
         o = periodic_orbit(S, period, transient=transient, rtol=rtol)
         msg = o.message
-        if o.converged and _prime_period(o.map, o.points, o.tolerance) == period:
+        if o.converged and _prime_period(o) == period:
             return o, "newton from the transient"
         if o.converged:
             msg = f"converged on an orbit of prime period < {period}"
@@ -204,6 +204,17 @@ def target_orbit(S, period, transient, rtol, say):
                          f"the state after {transient} revolutions: {msg}; close returns of "
                          f"60 section points: none of prime period {period})")
     return found[-1], "close returns of the section"
+
+
+def _prime_period(o) -> int:
+    """The least d dividing the orbit's period with point d = point 0 (scaled, to its
+    tolerance): a period-2 request that converged on a fixed point has prime period 1."""
+    m, p = o.map, int(o.period)
+    for d in range(1, p):
+        if p % d == 0 and np.max(np.abs(m.difference(o.points[d], o.points[0]) / m.scales)) \
+                <= o.tolerance:
+            return d
+    return p
 
 
 def _orbit_dict(o, autonomous=False) -> dict:
@@ -304,8 +315,8 @@ def _run_delayed(args, S, st, fb, target, say, kept) -> dict:
         o = periodic_orbit(S, int(st["target_period"]), guess=run.y, z=run.z, rtol=args.rtol)
         if o.converged:
             captured_orbit = o
-            d_captured = C._distance_to_curve(S, run.Y[-int(res.settings["samples_per_delay"]) - 1:],
-                                              C.orbit_states(o))
+            d_captured = C.distance_to_orbit(S, run.Y[-int(res.settings["samples_per_delay"]) - 1:],
+                                             o)
     except Exception as e:     # noqa: BLE001 - the evidence says it could not be found
         say(f"no orbit from the controlled motion: {e}")
     spd = int(res.settings["samples_per_delay"])
@@ -385,10 +396,16 @@ def _run_ogy(args, S, st, target, param, say) -> dict:
     m = target.map
     win = int(r.settings["window"])
     ons = 0
+    pi = S.kernel.layout.index[param]
+    p0 = float(S.p[pi])
     for k in range(n_iter - min(win, 10), n_iter):
-        x, z = r.x[k], None
-        y, zz = m.unpack(x, m.z0)
-        st_ = C._step_p(m, C._Param(m, S.kernel.layout.index[param]), x, zz, float(r.dp[k]))
+        x = r.x[k]
+        _, zz = m.unpack(x, m.z0)
+        S.p[pi] = p0 + float(r.dp[k])          # the map's flow is S: the perturbation it had
+        try:
+            st_ = m.step(x, zz)
+        finally:
+            S.p[pi] = p0
         ons += int(np.sum(st_.onsets)) if st_.onsets.size else 0
     nwin = min(win, 10)
     return {
