@@ -37,6 +37,7 @@ def test_controller_table_is_a_torque_load_and_round_trips():
     ("controller.gain=1", "controller.body = <missing>: required"),
     ("controller.delay=-0.01", "controller.delay = -0.01: must be > 0 (s)"),
     ("controller.memory=1.0", "controller.memory = 1.0: R must be in [0, 1)"),
+    ("controller.memory=0.5", "controller.memory = 0.5: Pyragas control has R = 0"),
     ('controller.method="lqr"', "controller.method = 'lqr': must be one of: pyragas, edfc, ogy"),
 ])
 def test_controller_table_bad_values(override, words):
@@ -47,6 +48,19 @@ def test_controller_table_bad_values(override, words):
     with pytest.raises(SceneError) as e:
         load_scene("slider_crank_olyaei", ov)
     assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_scene_controller_gives_the_defaults_and_the_command_line_wins(capsys):
+    # a [controller] with method edfc and R = 0.5: --method pyragas keeps the file's R -> error
+    ov = ["--set", 'controller.body="rod"', "--set", 'controller.method="edfc"', "--set",
+          "controller.memory=0.5"]
+    assert main(["control"] + CHAOTIC + ov + ["--method", "pyragas", "--quiet"]) == 2
+    assert "controller.memory (the scene's) = 0.5: Pyragas control has R = 0" in \
+        capsys.readouterr().err
+    # the file's signal is used when --signal is not given (checked against the states)
+    assert main(["control"] + CHAOTIC + ov + ["--set", 'controller.signal="rod.psi"',
+                                              "--quiet"]) == 2
+    assert "--signal = 'rod.psi': no such state" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("extra, words", [

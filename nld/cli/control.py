@@ -159,11 +159,12 @@ def _settings(args, scene, had):
     memory_default = 0.0 if method == "pyragas" else DEFAULTS["memory"]
     memory = args.memory if args.memory is not None else (
         file.memory if file is not None and file.memory != 0.0 else memory_default)
+    src = "--memory" if args.memory is not None else "controller.memory (the scene's)"
     if method == "pyragas" and memory != 0.0:
-        raise InputError(f"--memory = {memory!r}: Pyragas control has R = 0; use --method edfc "
+        raise InputError(f"{src} = {memory!r}: Pyragas control has R = 0; use --method edfc "
                          f"for R > 0")
     if not 0.0 <= memory < 1.0:
-        raise InputError(f"--memory = {memory!r}: R must be in [0, 1) (0: Pyragas; EDFC weights "
+        raise InputError(f"{src} = {memory!r}: R must be in [0, 1) (0: Pyragas; EDFC weights "
                          f"period k by R^(k-1))")
     signal = pick("signal", args.signal, f"{ctl.body}.phi_dot")
     delay = args.delay if args.delay is not None else (file.delay if file is not None else None)

@@ -682,8 +682,11 @@ def _controller(c: dict, bodies: dict, index: int) -> Controller:
     u_max = None
     if c.get("u_max") is not None:
         u_max = _num(c, "u_max", path, "N m", gt=0)
-    return Controller(body=body, signal=signal,
-                      method=_choice(c, "method", path, CONTROL_METHODS, "pyragas"),
+    method = _choice(c, "method", path, CONTROL_METHODS, "pyragas")
+    if method == "pyragas" and memory != 0.0:
+        raise SceneError(f"{path}.memory", c["memory"], "Pyragas control has R = 0; set "
+                         f"{path}.method = \"edfc\" for R > 0 (-)")
+    return Controller(body=body, signal=signal, method=method,
                       gain=_num(c, "gain", path, "N m per unit of the signal", 0.0),
                       delay=delay, memory=memory, offset=_num(c, "offset", path, "N m", 0.0),
                       u_max=u_max, load=index)
