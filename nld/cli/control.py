@@ -447,9 +447,12 @@ def _print(out, S):
              f", dp_max {s['dp_max']:g} N m, radius {s['radius']:g}"))
     print(f"  {s['message']}")
     unc = out["lambda1_uncertainty"]
-    print(f"  lambda1 free {_fmt(out['lambda1_uncontrolled'])} -> controlled "
-          f"{_fmt(out['lambda1_controlled'])}" + (f" +- {_fmt(unc, '.2g')}" if unc is not None
-                                                  else "") + " per revolution"
+    uu, uc = s.get("uncertainty_uncontrolled"), s.get("uncertainty_controlled")
+    print(f"  lambda1 free {_fmt(out['lambda1_uncontrolled'])}"
+          + (f" +- {_fmt(uu, '.2g')}" if uu is not None else "")
+          + f" -> controlled {_fmt(out['lambda1_controlled'])}"
+          + (f" +- {_fmt(uc, '.2g')}" if uc is not None else
+             f" +- {_fmt(unc, '.2g')}" if unc is not None else "") + " per revolution"
           + ("; controlled: conditional on the contact memory (permanent contact)"
              if str(s.get("lyapunov_controlled_memory", "")).startswith("held") else ""))
     print(f"  effort rms {_fmt(out['effort_rms_initial'])} -> {_fmt(out['effort_rms_final'])} N m; "
