@@ -47,7 +47,7 @@ from nld.errors import InputError, SolveError
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map, never_reset
 
 __all__ = ["PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_period",
-           "section_points"]
+           "section_points", "prime_period"]
 
 DEFAULT_MAX_ITER = 30
 
@@ -542,8 +542,9 @@ def _guess_points(m, guess, z0, p, transient):
 # all orbits up to a period
 
 
-def _prime_period(m, X, tol) -> int:
-    """The least d | p with x_0 = x_d (within tol, scaled)."""
+def prime_period(m, X, tol) -> int:
+    """The least d | p with x_0 = x_d (within tol, scaled): X the p points of an orbit of the
+    map m (a period-2 orbit that converged on a fixed point has prime period 1)."""
     p = len(X)
     for d in range(1, p):
         if p % d == 0 and np.max(np.abs(m.difference(X[d], X[0]) / m.scales)) <= tol:
@@ -697,7 +698,7 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
                 continue
             if not orb.converged or not _finite(orb.points):
                 continue
-            if _prime_period(m, orb.points, max(dedup_tol, 10 * orb.tolerance)) != p:
+            if prime_period(m, orb.points, max(dedup_tol, 10 * orb.tolerance)) != p:
                 continue
             if any(_same_orbit(m, orb.points, o.points, max(dedup_tol, 10 * orb.tolerance))
                    for o in per_p):

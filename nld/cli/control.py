@@ -208,14 +208,9 @@ def target_orbit(S, period, transient, rtol, say):
 
 
 def _prime_period(o) -> int:
-    """The least d dividing the orbit's period with point d = point 0 (scaled, to its
-    tolerance): a period-2 request that converged on a fixed point has prime period 1."""
-    m, p = o.map, int(o.period)
-    for d in range(1, p):
-        if p % d == 0 and np.max(np.abs(m.difference(o.points[d], o.points[0]) / m.scales)) \
-                <= o.tolerance:
-            return d
-    return p
+    """The orbit's prime period (``nld.analysis.orbits.prime_period``)."""
+    from nld.analysis.orbits import prime_period
+    return prime_period(o.map, o.points, o.tolerance)
 
 
 def _orbit_dict(o, autonomous=False) -> dict:
@@ -237,15 +232,29 @@ def _orbit_dict(o, autonomous=False) -> dict:
 
 def cmd_control(args) -> int:
     from nld.progress import progress_enabled
-    from nld.run.simulate import provenance
-    from nld.systems.core import SceneSystem
-    scene, had = controlled_scene(args.scene, args.overrides, args.body)
-    st = _settings(args, scene, had)
     shown = progress_enabled(args.progress) or (args.progress is None and sys.stderr.isatty())
 
     def say(text):
         if shown:
             print(f"  {text}", file=sys.stderr, flush=True)
+    out, _, S = run_control(args, say)
+    if args.json:
+        print(json.dumps(out, indent=2, default=_plain))
+    else:
+        _print(out, S)
+    return 0
+
+
+def run_control(args, say=lambda text: None) -> tuple:
+    """What ``nld control`` computes, without printing (for studies): ``(out, res, S)`` with
+    ``out`` the ``--json`` dict, ``res`` the :class:`nld.analysis.control.ControlResult` of
+    delayed feedback (its ``run``: the controlled run's samples; None for OGY) and ``S`` the
+    controlled SceneSystem. ``args``: the parsed
+    ``nld control`` arguments (``add_parser``'s namespace); ``say``: the progress lines."""
+    from nld.run.simulate import provenance
+    from nld.systems.core import SceneSystem
+    scene, had = controlled_scene(args.scene, args.overrides, args.body)
+    st = _settings(args, scene, had)
     if st["method"] == "ogy" and args.gains is not None:
         raise InputError("--gains: the stability domain is of delayed feedback (--method pyragas "
                          "or edfc); OGY's closed-loop multipliers are printed instead")
@@ -269,10 +278,11 @@ def cmd_control(args) -> int:
     kept = ["nothing kept (no result finished)"]
     try:
         target, how = target_orbit(S, P, args.transient, args.rtol, say)
+        res = None
         if st["method"] == "ogy":
             out = _run_ogy(args, S, st, target, target_param, say)
         else:
-            out = _run_delayed(args, S, st, fb, target, say, kept)
+            out, res = _run_delayed(args, S, st, fb, target, say, kept)
     except KeyboardInterrupt:
         raise Interrupted("interrupted", kept=kept[0]) from None
     out["settings"].update({"scene_overrides": list(args.overrides), "target_found_by": how,
@@ -281,14 +291,10 @@ def cmd_control(args) -> int:
                       command=getattr(args, "command_line", None))
     prov.pop("scene_parameters", None)
     out["provenance"] = prov
-    if args.json:
-        print(json.dumps(out, indent=2, default=_plain))
-    else:
-        _print(out, S)
-    return 0
+    return out, res, S
 
 
-def _run_delayed(args, S, st, fb, target, say, kept) -> dict:
+def _run_delayed(args, S, st, fb, target, say, kept) -> tuple:
     from nld.analysis import control as C
     from nld.progress import progress_bar
     T = float(S.period)
@@ -358,7 +364,7 @@ def _run_delayed(args, S, st, fb, target, say, kept) -> dict:
                f"{out['lambda1_controlled']:.3g} per revolution); the stability domain not")
     if args.gains is not None:
         out["stability_domain"] = _scan(args, S, fb, run, say, kept)
-    return out
+    return out, res
 
 
 def _scan(args, S, fb, run, say, kept) -> dict:
