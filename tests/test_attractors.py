@@ -102,9 +102,11 @@ def test_escaping_runs_are_their_own_class():
     assert kinds["escaping"].count + kinds["periodic"].count == 20
 
 
+@pytest.mark.slow
 def test_permanent_contact_is_its_own_class():
     """slider_crank_olyaei, c = 0.1 mm, mu = 0.1 (issue 25): the journal settles into permanent
-    contact with no onset; the census calls it so and prints the memory it depends on."""
+    contact with no onset; the census calls it so and prints the memory it depends on (quick
+    variant in the default run: test_cli_attractors_json, one start)."""
     from nld.systems.core import SceneSystem
     s = SceneSystem("slider_crank_olyaei", ["joints.B.clearance=1e-4", "joints.B.friction.mu=0.1"])
     r = census(s, 2, transient=60, record=16, lyapunov_members=1, rtol=1e-9, seed=2,
@@ -216,7 +218,10 @@ def test_cli_attractors_json(tmp_path, capsys):
     for key in ("kind", "fraction", "fraction_interval", "lambda1_per_revolution",
                 "lambda1_uncertainty", "onsets_per_period", "period"):
         assert key in a
+    # permanent contact is its own class (issue 25, item 3): no onset, the memory printed
     assert a["kind"] == PERMANENT_CONTACT and out["unsettled"] == 0
+    assert a["onsets_per_period"] == 0.0 and "B.v_onset" in a["conditional_on_memory"]
+    assert out["verdict"] == PERMANENT_CONTACT
     assert out["provenance"]["git_hash"] and out["settings"]["starts"] == 1
 
 
