@@ -21,7 +21,8 @@ chaotic, the case on which docs/control.md measured what works. The study runs
 
 Outputs: ``olyaei2012_control.pdf``; ``_summary.csv`` (quantity, value, uncertainty, unit),
 ``_domain.csv`` (lambda1(K)), ``_revolutions.csv`` (per controlled revolution: effort rms, peak |u|,
-onsets, section point), ``_sections.csv`` (free and controlled section points), ``_torque.csv``
+onsets, section point), ``_sections.csv`` (free and controlled section points, with the contact onsets in the revolution
+that starts there), ``_torque.csv``
 (rms / peak torque during and after capture, the crank's drive torque), each with its ``.csv.json``
 provenance; ``_history.parquet`` (the controlled run's samples; not committed).
 """
@@ -244,11 +245,14 @@ def domain_table(ctl: dict) -> pd.DataFrame:
 def sections_table(ctl: dict, free: dict, revs: pd.DataFrame) -> pd.DataFrame:
     c, cap = free["clearance"], captured_rev(ctl)
     f = free["section"]
-    a = pd.DataFrame({"case": "free", "rev": f["rev"], "ex/c": f["B.ex"] / c, "ey/c": f["B.ey"] / c})
+    on = np.asarray(free["onsets_per_rev"], float)
+    on = np.concatenate([on, np.full(max(0, len(f) - on.size), np.nan)])[: len(f)]
+    a = pd.DataFrame({"case": "free", "rev": f["rev"], "ex/c": f["B.ex"] / c, "ey/c": f["B.ey"] / c,
+                      "onsets": on})
     phase = np.where(revs["rev"] < (cap if cap is not None else math.inf), "controlled, before capture",
                      "controlled, after capture")
     b = pd.DataFrame({"case": phase, "rev": revs["rev"], "ex/c": revs["B.ex"] / c,
-                      "ey/c": revs["B.ey"] / c})
+                      "ey/c": revs["B.ey"] / c, "onsets": revs["onsets"].astype(float)})
     return pd.concat([a, b], ignore_index=True)
 
 

@@ -111,6 +111,8 @@ def test_the_numbers_follow_from_the_stand_ins(smoke):
     secs, _ = load_table(out / "olyaei2012_control_sections.csv")
     n = secs["case"].value_counts()
     assert (n["free"], n["controlled, before capture"], n["controlled, after capture"]) == (6, CAP, NREV - CAP)
+    fr = secs[secs["case"] == "free"]
+    assert fr["onsets"].iloc[:5].tolist() == [4, 3, 5, 4, 4] and math.isnan(fr["onsets"].iloc[5])
     after = secs[secs["case"] == "controlled, after capture"]
     assert after["ex/c"].to_numpy() == pytest.approx(1.01)
 
