@@ -49,6 +49,11 @@ def alive(pid: int) -> bool:
     return stat[stat.rindex(")") + 2] != "Z"
 
 
+def _default_sigint():
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def signal_when(argv, ready, cwd: Path, sig, *, env: dict | None = None, timeout: float = 120.0,
                 workers: int = 0):
     """Run ``python -m nld argv`` in ``cwd``, send ``sig`` once ``ready(stderr_text)`` is true and
@@ -60,8 +65,11 @@ def signal_when(argv, ready, cwd: Path, sig, *, env: dict | None = None, timeout
     env.pop("NLD_PROGRESS", None)
     err_path, out_path = cwd / "stderr.txt", cwd / "stdout.txt"
     with open(err_path, "w") as ferr, open(out_path, "w") as fout:
+        # the child starts with the default SIGINT disposition whatever this process inherited
+        # (a shell's background job ignores SIGINT, and Python keeps an ignored SIGINT ignored:
+        # the command would never see the Ctrl-C the test sends)
         proc = subprocess.Popen([sys.executable, "-m", "nld", *argv], cwd=cwd, env=env,
-                                stdout=fout, stderr=ferr)
+                                stdout=fout, stderr=ferr, preexec_fn=_default_sigint)
         deadline = time.monotonic() + timeout
         kids: list[int] = []
         try:
