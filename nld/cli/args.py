@@ -144,3 +144,16 @@ def progress_kw(func, progress) -> dict:
     if "progress" in params or any(p.kind is p.VAR_KEYWORD for p in params.values()):
         return {"progress": progress}
     return {}
+
+
+def json_plain(o):
+    """``json.dumps(default=...)`` of the commands' --json output: numpy scalars and arrays as
+    numbers and lists, a complex number as [re, im], anything else as its text."""
+    import numpy as np
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (complex, np.complexfloating)):
+        return [float(o.real), float(o.imag)]
+    return str(o)

@@ -8,7 +8,7 @@ import json
 import math
 from pathlib import Path
 
-from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of
+from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of, json_plain
 from nld.errors import InputError
 from nld.settings import LYAPUNOV
 
@@ -93,7 +93,7 @@ def cmd_attractors(args) -> int:
         out = {"attractors": [_json_attractor(a) for a in res.attractors],
                "unsettled": res.unsettled, "failed": res.failed, "verdict": res.verdict,
                "settings": res.settings, "provenance": prov}
-        print(json.dumps(out, indent=2, default=_plain))
+        print(json.dumps(out, indent=2, default=json_plain))
     else:
         print(str(res))
     return 0
@@ -107,15 +107,6 @@ def _json_attractor(a) -> dict:
     return {k: d[k] for k in keys}
 
 
-def _plain(o):
-    import numpy as np
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    return str(o)
 
 
 def _cmd_sweep(args) -> int:

@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 
-from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of
+from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of, json_plain
 from nld.errors import InputError, Interrupted
 
 # defaults that work on the chaotic slider_crank_olyaei --set joints.B.clearance=2e-4 --set
@@ -239,7 +239,7 @@ def cmd_control(args) -> int:
             print(f"  {text}", file=sys.stderr, flush=True)
     out, _, S = run_control(args, say)
     if args.json:
-        print(json.dumps(out, indent=2, default=_plain))
+        print(json.dumps(out, indent=2, default=json_plain))
     else:
         _print(out, S)
     return 0
@@ -485,11 +485,3 @@ def _print(out, S):
                   f"{'stable' if ok else ''}")
 
 
-def _plain(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, complex):
-        return [o.real, o.imag]
-    return str(o)

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of
+from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of, json_plain
 from nld.errors import InputError, Interrupted
 from nld.settings import LYAPUNOV
 
@@ -111,7 +111,7 @@ def cmd_orbits(args) -> int:
     if args.json:
         out = {"orbits": [o.to_dict() for o in orbits], "settings": settings,
                "provenance": {k: v for k, v in prov.items() if k != "scene_parameters"}}
-        print(json.dumps(out, indent=2, default=_plain))
+        print(json.dumps(out, indent=2, default=json_plain))
     else:
         print(f"{system.name}: {len(ok)} converged orbit{'s' if len(ok) != 1 else ''} "
               f"(rtol {args.rtol:g}; section at t = 0 mod {system.period:.6g} s)")
@@ -126,14 +126,6 @@ def cmd_orbits(args) -> int:
     return 0
 
 
-def _plain(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, complex):
-        return [o.real, o.imag]
-    return str(o)
 
 
 def _newton_progress(args):
