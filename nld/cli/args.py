@@ -157,3 +157,12 @@ def json_plain(o):
     if isinstance(o, (complex, np.complexfloating)):
         return [float(o.real), float(o.imag)]
     return str(o)
+
+
+def pool_args(sp) -> None:
+    """``--workers N`` (local worker processes, default the CPU count) and ``--dask ADDRESS``
+    (a Dask scheduler instead), as every parallel command takes them (nld.sweeps.executors)."""
+    sp.add_argument("--workers", type=count_arg("--workers", 1), default=None, metavar="N",
+                    help="local worker processes (default: CPU count)")
+    sp.add_argument("--dask", default=None, metavar="ADDRESS",
+                    help="run on a Dask cluster at this scheduler address instead")

@@ -8,7 +8,7 @@ import json
 import math
 from pathlib import Path
 
-from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of, json_plain
+from nld.cli.args import count_arg, number_arg, rtol_arg, scene_args, values_of, json_plain, pool_args
 from nld.errors import InputError
 from nld.settings import LYAPUNOV
 
@@ -47,10 +47,7 @@ def add_parser(sub):
                     help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
     sp.add_argument("--max-period", type=count_arg("--max-period", 1), default=d["max_period"],
                     metavar="P", help=f"longest period recognised (default {d['max_period']})")
-    sp.add_argument("--workers", type=count_arg("--workers", 1), default=None, metavar="N",
-                    help="local worker processes (default: CPU count)")
-    sp.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a Dask cluster at this scheduler address instead")
+    pool_args(sp)
     sp.add_argument("--json", action="store_true", help="print the result as JSON")
     sp.add_argument("--param", default=None, metavar="KEY",
                     help="sweep this scene key (with --values and --out)")

@@ -1,7 +1,7 @@
 """``nld bifurcation``: a bifurcation sweep of one scene value (stroboscopic points per value)."""
 from __future__ import annotations
 
-from nld.cli.args import count_arg, rtol_arg, scene_args, values_arg
+from nld.cli.args import count_arg, rtol_arg, scene_args, values_arg, pool_args
 from nld.errors import InputError
 from nld.settings import BIFURCATION_SPANS, SECTIONS
 
@@ -31,10 +31,7 @@ def add_parser(sub):
                     help="start each point from the previous point's final state (sequential)")
     sp.add_argument("--up-down", action="store_true",
                     help="sweep up then down (hysteresis; use with --continuation)")
-    sp.add_argument("--workers", type=count_arg("--workers", 1), default=None, metavar="N",
-                    help="local worker processes (default: CPU count)")
-    sp.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a Dask cluster at this scheduler address instead")
+    pool_args(sp)
     sp.add_argument("--resume", action="store_true", help="skip the points already in --out")
     sp.add_argument("--lyapunov", action="store_true",
                     help="also the largest Lyapunov exponent of every point (slower)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from nld.cli.args import count_arg, number_arg, rtol_arg, values_of
+from nld.cli.args import count_arg, number_arg, rtol_arg, values_of, pool_args
 from nld.errors import InputError
 from nld.settings import BENETTIN, CHAOS_MAP_SPANS, LYAPUNOV
 
@@ -61,10 +61,7 @@ def add_parser(sub):
                     help="seed of the perturbation direction, a whole number >= 0 (default 0)")
     sp.add_argument("--observable", default=None, metavar="COL",
                     help="section observable of the 0-1 test (default <first clearance joint>.ex)")
-    sp.add_argument("--workers", type=count_arg("--workers", 1), default=None, metavar="N",
-                    help="local worker processes (default: CPU count)")
-    sp.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a Dask cluster at this scheduler address instead")
+    pool_args(sp)
     sp.add_argument("--resume", action="store_true", help="skip the cells already in --out")
     sp.add_argument("--plot", default=None, metavar="FILE",
                     help="also write the heat map (lambda per revolution, lambda = 0 contour) to "
