@@ -88,7 +88,10 @@ def test_a_chaotic_attractor_is_chaotic():
     r = census(duffing(), 3, sampler=((-1.0, -0.5), (1.0, 0.5)), transient=20, record=200,
                progress=False)
     assert [a.kind for a in r.attractors] == ["chaotic"], str(r)
-    assert r.verdict == CHAOTIC
+    # the check at a tenth of the tolerance over twice the span agrees: the verdict holds
+    a = r.attractors[0]
+    assert a.lambda1_check - a.lambda1_check_uncertainty > 0
+    assert r.verdict == CHAOTIC == a.verdict
 
 
 def test_escaping_runs_are_their_own_class():

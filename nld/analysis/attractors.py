@@ -67,6 +67,9 @@ DEFAULTS = dict(starts=32, transient=50, record=100, max_period=16, period_tol=1
 # a not-periodic motion is quasi-periodic only when its λ1 is zero within an uncertainty of at
 # most this (per period): a wide interval around zero is "not resolved", not quasi-periodic
 QUASI_PERIODIC_UNC = 0.05
+# the verdict check of a chaotic or quasi-periodic attractor: a tenth of the tolerance, twice the
+# averaging span, from the same state
+CHECK_RTOL, CHECK_SPAN = 0.1, 2.0
 
 
 # ---------------------------------------------------------------- statistics
@@ -175,6 +178,9 @@ class Attractor:
     conditional_on_memory: dict | None = None
     runs: list = field(default_factory=list)
     note: str = ""
+    verdict: str = ""
+    lambda1_check: float = math.nan
+    lambda1_check_uncertainty: float = math.nan
 
     def line(self, period_name: str = "period") -> str:
         lo, hi = self.fraction_interval
@@ -183,6 +189,10 @@ class Attractor:
                f"λ1 = {self.lambda1:.4g} ± {self.lambda1_uncertainty:.2g} per {period_name}")
         s = (f"#{self.id} {kind}: fraction {self.fraction:.3f} [{lo:.3f}, {hi:.3f}] "
              f"({self.count} runs), {lam}")
+        if math.isfinite(self.lambda1_check):
+            s += (f" (check at a tenth of the tolerance over twice the span: "
+                  f"{self.lambda1_check:.4g} ± {self.lambda1_check_uncertainty:.2g}; verdict "
+                  f"{self.verdict})")
         if math.isfinite(self.onsets_per_period):
             s += f", {self.onsets_per_period:.3g} contact onsets per {period_name}"
         if self.conditional_on_memory:
@@ -198,7 +208,9 @@ class Attractor:
                 "lambda1_uncertainty": _num(self.lambda1_uncertainty),
                 "onsets_per_period": _num(self.onsets_per_period),
                 "conditional_on_memory": self.conditional_on_memory, "runs": list(self.runs),
-                "note": self.note}
+                "note": self.note, "verdict": self.verdict,
+                "lambda1_check": _num(self.lambda1_check),
+                "lambda1_check_uncertainty": _num(self.lambda1_check_uncertainty)}
 
 
 def _num(v):
@@ -230,8 +242,10 @@ class CensusResult:
     @property
     def verdict(self) -> str:
         """The verdict rule's word for this parameter point (``nld.analysis.verdict``)."""
-        from nld.analysis.verdict import census_verdict
-        return census_verdict([a.kind for a in self.attractors])
+        from nld.analysis.verdict import COEXISTING, census_verdict
+        if len(self.attractors) == 1 and self.attractors[0].verdict:
+            return self.attractors[0].verdict          # the checked word of the one motion
+        return COEXISTING if len(self.attractors) > 1 else census_verdict([])
 
     @property
     def unsettled_interval(self):
@@ -409,21 +423,24 @@ def _run_start(ctx, i, y, z):
 
 
 # ---------------------------------------------------------------- exponents
-def _exponent(ctx, run: _Run, seed: int):
-    """(λ1, uncertainty) per period from the end of the run's section, or (nan, nan, message)."""
+def _exponent(ctx, run: _Run, seed: int, rtol_factor: float = 1.0, span_factor: float = 1.0):
+    """(λ1, uncertainty) per period from the end of the run's section, or (nan, nan, message);
+    rtol_factor / span_factor: the verdict check's tighter tolerance and longer span."""
     from nld.analysis.lyapunov import lyapunov_tangent
     system, smap = ctx["system"], ctx["map"]
     s = copy.copy(system)
     if smap is None:
         s.y0 = np.array(run.X[-1], dtype=float)
-        res = lyapunov_tangent(s, transient=0, total=ctx["record_lyap"], seed=seed,
-                               progress=False)
+        res = lyapunov_tangent(s, transient=0, total=int(ctx["record_lyap"] * span_factor),
+                               seed=seed, progress=False)
         return float(res.exponent), float(np.ravel(res.uncertainty)[0]), ""
     y, zz = smap.unpack(run.X[-1], run.z)
     s.y0, s.z0 = y, zz
     try:
-        res = lyapunov_tangent(s, transient=0.0, total=ctx["record_lyap"] * system.period,
-                               rtol=ctx["rtol"], seed=seed, progress=False)
+        res = lyapunov_tangent(s, transient=0.0,
+                               total=ctx["record_lyap"] * span_factor * system.period,
+                               rtol=max(1e-14, ctx["rtol"] * rtol_factor), seed=seed,
+                               progress=False)
     except (SolveError, InputError) as e:
         return math.nan, math.nan, str(e)
     return float(res.per_revolution), float(res.uncertainty_per_revolution), ""
@@ -562,7 +579,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
            match_factor: float = DEFAULTS["match_factor"],
            lyapunov_members: int = DEFAULTS["lyapunov_members"],
            rate_spread: float = DEFAULTS["rate_spread"], escape: float = DEFAULTS["escape"],
-           workers: int = 1, dask=None, progress=None) -> CensusResult:
+           workers: int = 1, dask=None, check: bool = True, progress=None) -> CensusResult:
     """The attractors reached from ``starts`` seeded starting states (module docstring).
 
     system: a forced flow (a scene system: ``SceneSystem``; a ContinuousSystem with a period) or
@@ -573,12 +590,15 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
     (default ``nld.settings.LYAPUNOV.rtol``). workers / dask: the runs and exponents of a
     scene on a local process pool or a Dask cluster (``nld.sweeps.executors``; each worker
     builds the scene's system from its compiled kernel); other systems run in this process.
-    The other settings: module docstring, DEFAULTS. The result does not depend on where the runs
-    ran.
+    check: recompute λ1 of every chaotic or quasi-periodic attractor at CHECK_RTOL x rtol over
+    CHECK_SPAN x the span from the same state; its ``verdict`` holds only if both agree (else
+    "not established", nld.analysis.verdict). The other settings: module docstring, DEFAULTS.
+    The result does not depend on where the runs ran.
     """
     import pandas as pd
     from nld.analysis.lyapunov import check_seed
-    from nld.analysis.verdict import exponent_verdict, CHAOTIC
+    from nld.analysis.verdict import (CHAOTIC, NOT_ESTABLISHED, exponent_verdict, kind_verdict,
+                                      verdict as verdict_rule)
     from nld.progress import progress_bar
     starts = _check_int("starts", starts, 1)
     seed = check_seed(seed)
@@ -634,6 +654,18 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             kind = (CHAOTIC if v == CHAOTIC else
                     "quasi-periodic" if v == "uncertain" and unc <= QUASI_PERIODIC_UNC
                     else "unsettled")
+        word, chk = kind_verdict(kind), None
+        if kind in (CHAOTIC, "quasi-periodic") and check:
+            # the verdict holds only across a change of tolerance and averaging span on the same
+            # motion (nld.analysis.verdict): the first run again at CHECK_RTOL x rtol, CHECK_SPAN x
+            # the span, from the same state
+            lh, uh = lams[g[0]][:2]
+            lc, uc, _ = _exponent(ctx, head, seed, CHECK_RTOL, CHECK_SPAN)
+            chk = (lc, uc)
+            if kind == CHAOTIC:
+                word = verdict_rule(lh, uh, lam_check=lc, unc_check=uc)
+            elif not (math.isfinite(lc) and abs(lc) <= max(uc, QUASI_PERIODIC_UNC)):
+                word = NOT_ESTABLISHED
         if kind == "unsettled":
             unsettled.extend(g)
             for i in g:
@@ -653,7 +685,9 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             fraction_interval=wilson_interval(len(g), starts), points=head.X[-64:].copy(),
             lambda1=lam, lambda1_uncertainty=unc, lambda1_runs=lam_runs,
             onsets_per_period=float(np.mean(ons)) if ons else math.nan,
-            conditional_on_memory=mem, runs=list(g),
+            conditional_on_memory=mem, runs=list(g), verdict=word,
+            lambda1_check=chk[0] if chk else math.nan,
+            lambda1_check_uncertainty=chk[1] if chk else math.nan,
             note=("orbits of a continuum selected by the recorded memory (history-dependent)"
                   if head.permanent else "")))
         for i in g:
@@ -661,6 +695,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
     escaping = [i for i, r in enumerate(runs) if r.status == "escaping"]
     if escaping:
         attractors.append(Attractor(id=0, kind="escaping", period=0, count=len(escaping),
+                                    verdict=kind_verdict("escaping"),
                                     fraction=len(escaping) / starts,
                                     fraction_interval=wilson_interval(len(escaping), starts),
                                     points=np.zeros((0, ctx["n"])), runs=escaping))
@@ -684,7 +719,9 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
                     rate_spread=rate_spread, escape=escape,
                     lyapunov="tangent, %d %ss from the end of the section" % (
                         ctx["record_lyap"], pname),
-                    sampler="scene default" if sampler is None else repr(sampler))
+                    sampler="scene default" if sampler is None else repr(sampler),
+                    check=(f"chaotic / quasi-periodic attractors: λ1 again at {CHECK_RTOL:g} x rtol "
+                           f"over {CHECK_SPAN:g} x the span" if check else "none"))
     return CensusResult(system=system.name, attractors=attractors, n_starts=starts,
                         unsettled=len(unsettled), failed=failed, runs=table, settings=settings,
                         period_name=pname,

@@ -100,7 +100,8 @@ def _json_attractor(a) -> dict:
     d = a.to_dict()
     keys = ("kind", "fraction", "fraction_interval", "lambda1_per_revolution",
             "lambda1_uncertainty", "onsets_per_period", "period", "count",
-            "conditional_on_memory", "note")
+            "conditional_on_memory", "note", "verdict", "lambda1_check",
+            "lambda1_check_uncertainty")
     return {k: d[k] for k in keys}
 
 
