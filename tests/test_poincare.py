@@ -277,3 +277,54 @@ def test_section_provenance_names_the_method_the_system_ran():
     for sec in (stroboscopic(s, transient_revs=0, revs=2),
                 hyperplane_section(s, observable="y0", level=0.0, t_end=6.0)):
         assert sec.provenance["integrator"] == "dop853" and sec.message.startswith("dop853: reached")
+
+
+# ------------------------------------------------------------------------------ one path (issue 24)
+def test_stroboscopic_section_of_a_system_is_its_map_orbit():
+    """A system's stroboscopic section is StroboscopicMap.orbit(land=True) point for point (one
+    integration path), the first point the state after the transient (start=True)."""
+    from nld.systems.derived import StroboscopicMap
+    s = duffing(gamma=0.5)
+    sec = stroboscopic(s, transient_revs=3, revs=6, rtol=1e-10)
+    m = StroboscopicMap(s, rtol=1e-10)
+    run = m.orbit(s.y0, n=6, transient=3, land=True, start=True)
+    assert run.success and run.status == 0
+    assert np.array_equal(sec.points, run.Y) and np.array_equal(sec.table.t, run.t)
+    assert np.array_equal(sec.y_final, run.Y[-1]) and sec.t_final == run.t_reached
+    # without the start point: the same chunks, so the same points from the second on
+    later = m.orbit(s.y0, n=5, transient=3, land=True)
+    assert np.array_equal(later.Y, run.Y[1:])
+    # the dense-output default (the census) agrees to the integration error
+    dense = m.orbit(s.y0, n=5, transient=3)
+    assert np.abs(dense.X - later.X).max() < 1e-6
+
+
+def test_interrupted_scene_section_keeps_the_points_reached(monkeypatch):
+    """Ctrl-C during a scene's stroboscopic section (SIGINT sent during the second period's
+    integration): Interrupted whose partial Section holds the points reached, equal to those of
+    the uninterrupted section."""
+    import os
+    import signal
+    from nld.errors import Interrupted
+    import nld.run.simulate as simmod
+    full = stroboscopic("slider_crank", transient_revs=1, revs=5)
+    two = stroboscopic("slider_crank", transient_revs=1, revs=2)
+    real = simmod.integrate_chunked
+    calls = []
+
+    def chunked(solve, *a, **kw):
+        def solve_and_signal(*b):
+            calls.append(1)
+            if len(calls) == 2:
+                os.kill(os.getpid(), signal.SIGINT)
+            return solve(*b)
+        return real(solve_and_signal, *a, **kw)
+    monkeypatch.setattr(simmod, "integrate_chunked", chunked)
+    with pytest.raises(Interrupted) as e:
+        stroboscopic("slider_crank", transient_revs=1, revs=5)
+    part = e.value.partial
+    assert part.status == simmod.INTERRUPTED and part.message.startswith("interrupted")
+    assert list(part.table.rev) == [1, 2] and part.provenance["partial"] is True
+    assert np.array_equal(part.points, full.points[:2])
+    assert np.array_equal(part.y_final, two.y_final) and part.t_final == two.t_final
+    assert "2 of 5 section points" in e.value.kept

@@ -2,8 +2,9 @@
 
 * :func:`stroboscopic` -- the state sampled at exact multiples of the crank period T = 2 pi/|omega|
   of a speed-driven crank (or of the forcing period of a forced ODE), after a transient given in
-  revolutions. The integrator *lands* on every sampling time (``simulate(..., land=True)``), so a
-  section point carries only the integration error, no interpolation error.
+  revolutions: the orbit of the system's :class:`nld.systems.StroboscopicMap` (one path for
+  scenes and ODEs). The integrator *lands* on every sampling time, so a section point carries
+  only the integration error, no interpolation error.
 * :func:`hyperplane_section` -- crossings of a hypersurface g = level in a chosen direction: the
   crank angle = theta0 (mod 2 pi) of a torque-driven crank, or any observable (table column of a
   scene, state of an ODE) crossing a level. Crossings are bracketed on a fine output grid and then
@@ -158,6 +159,12 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
     scales, as ``simulate``). y0, z0: start state at t = 0 (e.g. ``y_final``/``z_final`` of a
     previous section: continuation).
 
+    One path for scenes and systems: the section is the orbit of the system's stroboscopic map,
+    ``nld.systems.StroboscopicMap(system, rtol=rtol).orbit(..., land=True, start=True)`` (a
+    scene: its :func:`nld.systems.SceneSystem`, with ``simulate``'s tolerances, step cap and
+    start state, so the points are those of ``simulate(..., t_eval=k*T, land=True)`` bit for
+    bit); one integration from t = 0 in chunks of one period.
+
     Accuracy: the integrator lands exactly on every sampling time, so the points carry the
     integration error only, no interpolation error. Measured against rtol 1e-12 (docs/analysis.md):
     the Flores slider-crank (chaotic) 1e-4 of the clearance after one revolution at rtol 1e-8,
@@ -168,94 +175,124 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
     progress: a bar in crank revolutions (see ``nld.run.simulate``). Ctrl-C raises
     :class:`nld.errors.Interrupted` whose ``partial`` is the Section of the points reached.
     """
+    from nld.settings import check_rtol
+    from nld.run.simulate import INTERRUPTED, MAX_OUTPUT_BYTES, interrupted_message
+    from nld.systems.derived import StroboscopicMap
     transient_revs = _check_count("transient_revs", transient_revs, 0)
     revs = _check_count("revs", revs, 1)
+    sc = kern = None
     if _is_system(scene):
-        return _stroboscopic_system(scene, transient_revs, revs, observables, rtol, y0, z0,
-                                    max_steps)
-    from nld.kernel.compile import compile_scene
-    from nld.run.simulate import crank_period, simulate
-    sc = _load(scene, overrides)
-    if sc.driver is None or sc.driver.mode != "speed":
-        raise InputError(f"scene {sc.name!r}: a stroboscopic section needs a speed-driven crank "
-                         "(driver.mode = \"speed\"); use hyperplane_section for a torque-driven "
-                         "crank (crank angle = theta0 mod 2 pi)")
-    T = crank_period(sc)
-    kern = kernel if kernel is not None else compile_scene(sc)
-    obs = _check_observables(observables if observables is not None else default_observables(kern),
-                             ["t"] + list(kern.columns))
-    from nld.run.simulate import MAX_OUTPUT_BYTES
-    fit = MAX_OUTPUT_BYTES // ((len(kern.columns) + 24) * 8)
-    if revs > fit:          # the run's table holds every column at each section time
-        raise InputError(f"revs = {revs}: {revs:.3g} section points would need "
-                         f"{revs * (len(kern.columns) + 24) * 8 / 2**30:.3g} GiB; at most {fit:.3g} "
-                         f"fit the {MAX_OUTPUT_BYTES / 2**30:g} GiB output limit")
+        system = scene
+        if system.is_map:
+            raise InputError(f"{system.name} is a map: iterate it, a stroboscopic section is for "
+                             "flows")
+        if system.period is None:
+            raise InputError(f"{system.name}: a stroboscopic section needs a forcing period "
+                             "(ContinuousSystem(period=...))")
+        obs = _check_observables(observables if observables is not None
+                                 else list(system.state_names), _system_observables(system),
+                                 "state")
+        y = np.ascontiguousarray(system.y0 if y0 is None else y0, dtype=float).copy()
+        z = np.array(system.z0 if z0 is None else z0, dtype=float)
+        if y.shape != (system.n,):
+            raise InputError(f"y0 = {y0!r}: need {system.n} values")
+        check_rtol(rtol)
+    else:
+        from nld.kernel.compile import compile_scene
+        from nld.run.simulate import _state_arg, initial_state
+        from nld.systems.core import SceneSystem
+        sc = _load(scene, overrides)
+        if sc.driver is None or sc.driver.mode != "speed":
+            raise InputError(f"scene {sc.name!r}: a stroboscopic section needs a speed-driven "
+                             "crank (driver.mode = \"speed\"); use hyperplane_section for a "
+                             "torque-driven crank (crank angle = theta0 mod 2 pi)")
+        kern = kernel if kernel is not None else compile_scene(sc)
+        obs = _check_observables(observables if observables is not None
+                                 else default_observables(kern), ["t"] + list(kern.columns))
+        fit = MAX_OUTPUT_BYTES // ((len(kern.columns) + 24) * 8)
+        if revs > fit:          # the table holds every column at each section time
+            raise InputError(f"revs = {revs}: {revs:.3g} section points would need "
+                             f"{revs * (len(kern.columns) + 24) * 8 / 2**30:.3g} GiB; at most "
+                             f"{fit:.3g} fit the {MAX_OUTPUT_BYTES / 2**30:g} GiB output limit")
+        check_rtol(rtol)
+        # the start state and the tolerances exactly as ``simulate`` sets them: the assembled
+        # state's scales unless both y0 and z0 are given (then the scales at y0)
+        if y0 is None or z0 is None:
+            y_a, z_a, _ = initial_state(kern)
+            y = y_a if y0 is None else _state_arg("y0", y0, kern.n_state)
+            if z0 is None:
+                z = z_a.copy()
+                kern.init_modes(0.0, y, kern.params(sc), z)
+            else:
+                z = _state_arg("z0", z0, kern.n_z)
+            system = SceneSystem(sc, kernel=kern, method=sc.method or "dopri5")
+        else:
+            y, z = _state_arg("y0", y0, kern.n_state), _state_arg("z0", z0, kern.n_z)
+            system = SceneSystem(sc, kernel=kern, method=sc.method or "dopri5", y0=y)
+    smap = StroboscopicMap(system, rtol=rtol)
+    T = smap.T
     k = np.arange(transient_revs, transient_revs + revs)
-    t_eval = k * T
-    t_end = float(t_eval[-1]) if t_eval[-1] > 0 else T * 1e-9   # a one-point section at t = 0
+    t_end = float(k[-1] * T) if k[-1] > 0 else T * 1e-9     # (messages: a one-point section at 0)
     start = time.perf_counter()
-    interrupted = None
+    interrupted = False
     try:
-        res = simulate(sc, t_eval=t_eval, t_end=t_end, land=True, rtol=rtol, y0=y0, z0=z0,
-                       kernel=kern, max_steps=max_steps, progress=progress)
+        run = smap.orbit(smap.pack(y, z), z, revs, transient=transient_revs, land=True,
+                         start=True, relabel=False, progress=progress, max_steps=max_steps,
+                         desc=f"stroboscopic {sc.name if sc is not None else system.name}")
     except Interrupted as e:
-        if e.partial is None:
+        if not hasattr(e.partial, "X"):
             raise
-        res, interrupted = e.partial, e
-    n = len(res.table)
-    table = pd.DataFrame({"rev": k[:n].astype(np.int64), "t": res.table["t"].to_numpy()})
-    for o in obs:
-        if o != "t":
-            table[o] = res.table[o].to_numpy()
-    prov = dict(res.provenance)
-    prov.update(kind="stroboscopic", transient_revs=transient_revs, revs=revs, period=T,
-                observables=obs, rtol=rtol, status=res.status, message=res.message,
-                wall=time.perf_counter() - start, continued=y0 is not None,
-                overrides=dict(overrides) if isinstance(overrides, dict) else list(overrides or []))
-    sec = Section(table, obs, np.asarray(res.y_final, float).copy(),
-                  np.asarray(res.z_final, float).copy(), float(res.t_reached), int(res.status),
-                  res.message, T, prov)
-    if interrupted is not None:
-        n_sec = int((k[:n] >= transient_revs).sum())
-        raise Interrupted(res.message, partial=sec,
-                          kept=f"{n_sec} of {revs} section points (t = 0 .. {res.t_reached:.6g} s)")
+        run, interrupted = e.partial, True
+    n = run.t.size
+    status, t_reached = int(run.status), float(run.t_reached)
+    table = pd.DataFrame({"rev": k[:n].astype(np.int64), "t": run.t})
+    if sc is not None:
+        from nld.interrupt import deferred
+        from nld.run.simulate import _failure_context, provenance
+        ncols = len(kern.columns)
+        rows = np.empty((n, ncols))
+        with deferred() as sig:
+            kern.module.observe_all(np.ascontiguousarray(run.t), np.ascontiguousarray(run.Y),
+                                    np.ascontiguousarray(run.Z), n, system.p, rows)
+            if sig.requested:
+                sig.handled = interrupted = True
+        for o in obs:
+            if o != "t":
+                table[o] = rows[:, kern.columns.index(o)]
+        msg = (interrupted_message(t_reached, 0.0, t_end, n, revs, sc) if status == INTERRUPTED
+               else _status_text(system, status, t_reached, run.stats))
+        if status < 0:
+            msg += _failure_context(kern, rows, n)
+        if interrupted and status != INTERRUPTED and n < revs:
+            status, msg = INTERRUPTED, interrupted_message(t_reached, 0.0, t_end, n, revs, sc)
+        prov = provenance(sc, kern, rtol=rtol, t_end=t_end, wall=time.perf_counter() - start,
+                          integrator=_method(system))
+        prov["event_samples"] = int(system.event_samples)
+        if interrupted:
+            prov.update(partial=status == INTERRUPTED, interrupted=True)
+        prov.update(kind="stroboscopic", transient_revs=transient_revs, revs=revs, period=T,
+                    observables=obs, rtol=rtol, status=status, message=msg,
+                    wall=time.perf_counter() - start, continued=y0 is not None,
+                    overrides=dict(overrides) if isinstance(overrides, dict)
+                    else list(overrides or []))
+    else:
+        for o in obs:
+            if o != "t":
+                table[o] = run.Y[:, system.state_names.index(o)]
+        msg = (interrupted_message(t_reached, 0.0, t_end, n, revs) if status == INTERRUPTED
+               else _status_text(system, status, t_reached, run.stats))
+        prov = _system_provenance(system, kind="stroboscopic", transient_revs=transient_revs,
+                                  revs=revs, period=T, observables=obs, rtol=rtol, status=status,
+                                  message=msg, wall=time.perf_counter() - start)
+        if interrupted:
+            prov.update(partial=True, interrupted=True)
+    y_final = run.Y[n - 1].copy() if n else np.asarray(y, float).copy()
+    sec = Section(table, obs, y_final, np.array(run.z_reached, dtype=float), t_reached, status,
+                  msg, T, prov)
+    if interrupted:
+        raise Interrupted(msg, partial=sec,
+                          kept=f"{n} of {revs} section points (t = 0 .. {t_reached:.6g} s)")
     return sec
-
-
-def _stroboscopic_system(system, transient_revs, revs, observables, rtol, y0, z0, max_steps):
-    if system.is_map:
-        raise InputError(f"{system.name} is a map: iterate it, a stroboscopic section is for flows")
-    if system.period is None:
-        raise InputError(f"{system.name}: a stroboscopic section needs a forcing period "
-                         "(ContinuousSystem(period=...))")
-    T = system.period
-    names = _system_observables(system)
-    obs = _check_observables(observables if observables is not None else list(system.state_names),
-                             names, "state")
-    y = np.ascontiguousarray(system.y0 if y0 is None else y0, dtype=float).copy()
-    z = np.array(system.z0 if z0 is None else z0, dtype=float)
-    if y.shape != (system.n,):
-        raise InputError(f"y0 = {y0!r}: need {system.n} values")
-    k = np.arange(transient_revs, transient_revs + revs)
-    t_eval = np.ascontiguousarray(k * T, dtype=float)
-    atol = system.tolerance(rtol)
-    start = time.perf_counter()
-    out = system.solve(0.0, y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
-                       float(system.hmax), int(max_steps), int(system.n_events), 1000)
-    out = as_solution(out)
-    status, t_reached, Y, n_out, st = out.status, out.t, out.Y, int(out.n_out), out.stats
-    Zrows = out.Z
-    table = pd.DataFrame({"rev": k[:n_out].astype(np.int64), "t": t_eval[:n_out]})
-    for o in obs:
-        if o != "t":
-            table[o] = Y[:n_out, system.state_names.index(o)]
-    msg = _status_text(system, status, t_reached, st)
-    y_final = Y[n_out - 1].copy() if n_out else y
-    z_final = np.array(Zrows[n_out - 1], dtype=float) if n_out else z
-    prov = _system_provenance(system, kind="stroboscopic", transient_revs=transient_revs,
-                              revs=revs, period=T, observables=obs, rtol=rtol, status=int(status),
-                              message=msg, wall=time.perf_counter() - start)
-    return Section(table, obs, y_final, z_final, float(t_reached), int(status), msg, T, prov)
 
 
 def _method(system) -> str:

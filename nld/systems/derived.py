@@ -75,11 +75,17 @@ class MapStep:
 class SectionRun:
     """Section points of a run (:meth:`StroboscopicMap.orbit`).
 
-    X: (m, N) the recorded points (augmented state, SI), m = n unless the run failed.
+    X: (m, N) the recorded points (augmented state, SI; angles wrapped), m = n unless the run
+    failed or was interrupted.
     z: the discrete state after the last recorded point. onsets: contact onsets per contact event
     over the recorded steps. gaps: (m, n_contacts) the contact events' values at the points (a
     scene: penetration, m; > 0 in contact). success / message: as for an integrator result.
     y_start: the flow state the recording started from (after the transient).
+    t: (m,) the times of the points (s). Y, Z: (m, n) and (m, nz) the flow states (angles *not*
+    wrapped: as integrated) and discrete states at the points. status, t_reached, stats: the
+    integrator's status (``nld.run.simulate.INTERRUPTED`` after Ctrl-C), where it stopped (s) and
+    its counters (steps, accepted, rejected, rhs, events ...). z_reached: the discrete state
+    where the integration stopped (that of the last point when it succeeded).
     """
     X: np.ndarray
     z: np.ndarray
@@ -88,6 +94,13 @@ class SectionRun:
     success: bool
     message: str
     y_start: np.ndarray
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    Y: np.ndarray | None = None
+    Z: np.ndarray | None = None
+    status: int = 0
+    t_reached: float = math.nan
+    stats: np.ndarray = field(default_factory=lambda: np.zeros(5, dtype=np.int64))
+    z_reached: np.ndarray | None = None
 
 
 def contact_events(system) -> np.ndarray:
@@ -342,53 +355,148 @@ class StroboscopicMap(_FlowMap):
         s = self.step(x, z)
         return s.x, s.z
 
-    def orbit(self, x, z=None, n: int = 100, *, transient: int = 0) -> "SectionRun":
-        """The section points x_1 .. x_n after ``transient`` steps, from two integrations (the
-        transient, then the n steps sampled on the dense output: no landing at each period, so
-        n steps cost one integration, not n). Never raises for a failed integration: the result
-        says how far it got (``SectionRun``). Contact onsets are counted over the n recorded
-        steps only; ``gaps`` are the contact events' values (a scene: the penetration, m, > 0 in
-        contact) at each recorded point."""
+    def orbit(self, x, z=None, n: int = 100, *, transient: int = 0, land: bool = False,
+              start: bool = False, relabel: bool = True, progress: bool | None = None,
+              max_steps: int | None = None, desc: str | None = None) -> "SectionRun":
+        """The section points x_1 .. x_n after ``transient`` steps (``start``: x_0 .. x_{n-1},
+        the first the state after the transient itself) at t = t0 + k T.
+
+        Two ways to integrate:
+
+        * ``land=False`` (default): two integrations, the transient, then the n steps sampled on
+          the dense output (no landing at each period, so n steps cost one integration, not n;
+          the census, ``nld.analysis.attractors``). Never raises for a failed integration: the
+          result says how far it got.
+        * ``land=True``: one integration from x, in chunks of one map step
+          (``nld.run.simulate.integrate_chunked``), landing exactly on every section time, so a
+          point carries the integration error only, no interpolation error; ``progress``: a bar
+          in map steps (None: only on a terminal, after 2 s); Ctrl-C (or SIGTERM where the command
+          line took it) stops it at the next step's end and raises :class:`nld.errors.Interrupted`
+          whose ``partial`` is the SectionRun of the points reached (status
+          ``nld.run.simulate.INTERRUPTED``). The Poincaré sections of ``nld.analysis.poincare``
+          are this run. A failed integration is reported in the result, not raised.
+
+        z: the discrete state with x (default the system's z0); ``relabel``: its labels set from
+        x by the flow's init_modes (off: z taken as given, e.g. a previous run's). max_steps: the
+        integrator's step budget for the whole run (default 5e7). Contact onsets are counted over
+        the recorded steps only; ``gaps`` are the contact events' values (a scene: the
+        penetration, m, > 0 in contact) at each recorded point. InputError when the points would
+        not fit ``nld.run.simulate.MAX_OUTPUT_BYTES``."""
+        from nld.run.simulate import MAX_OUTPUT_BYTES
         z = self.z0 if z is None else z
-        y, zz = self.unpack(x, z, relabel=True)
+        y, zz = self.unpack(x, z, relabel=relabel)
         t0 = self.t0
         n, transient = int(n), int(transient)
+        sysm = self.flow
+        width = 2 * self.n_y + 2 * zz.size + self.n + self.contacts.size + 1
+        if n * width * 8 > MAX_OUTPUT_BYTES:
+            raise InputError(f"n = {n}: {n:.3g} section points would need "
+                             f"{n * width * 8 / 2**30:.3g} GiB; at most "
+                             f"{MAX_OUTPUT_BYTES // (width * 8):.3g} fit the "
+                             f"{MAX_OUTPUT_BYTES / 2**30:g} GiB output limit")
+        max_steps = 50_000_000 if max_steps is None else int(max_steps)
+        atol = sysm.tolerance(self.rtol)
+        if land:
+            return self._orbit_landing(y, zz, n, transient, start, atol, max_steps, progress,
+                                       desc)
         if transient > 0:
             try:
                 out, zz, _ = self._plain(y, zz, t0, t0 + transient * self.T)
             except SolveError as e:
                 return SectionRun(np.zeros((0, self.n)), zz, np.zeros(self.contacts.size, np.int64),
-                                  np.zeros((0, self.contacts.size)), False, str(e), y)
+                                  np.zeros((0, self.contacts.size)), False, str(e), y,
+                                  Y=np.zeros((0, self.n_y)), Z=np.zeros((0, zz.size)), status=-1,
+                                  t_reached=t0, z_reached=np.array(zz))
             y = wrap_angles_of(self.flow, out.Y[0].copy())
-        sysm = self.flow
-        te = t0 + self.T * np.arange(1, n + 1)
-        atol = sysm.tolerance(self.rtol)
+        # time restarts at t0 after the transient (the forcing is T-periodic)
+        k0 = 0 if start else 1
+        te = t0 + self.T * np.arange(k0, n + k0)
         out = as_solution(sysm.solve(float(t0), np.ascontiguousarray(y, dtype=float), te, False,
                                      sysm.p, np.array(zz, dtype=float), self.rtol, atol, 0.0,
-                                     float(sysm.hmax), 50_000_000, int(sysm.n_events),
+                                     float(sysm.hmax), max_steps, int(sysm.n_events),
                                      _MAX_LOG + 400 * n))
         m = int(out.n_out)
-        Y = np.array(out.Y[:m])
+        onsets = self._count_onsets(out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev])
+        ok = out.status == 0 and m == n
+        msg = "" if ok else f"{sysm.name}: " + failure_message(sysm, out, float(t0), y, zz,
+                                                                 self.rtol, atol)
         Z = np.array(out.Z[:m])
+        z_end = np.array(Z[-1]) if m else np.array(zz)
+        return self._section_run(te[:m], np.array(out.Y[:m]), Z, onsets, ok, msg, y,
+                                 int(out.status), float(out.t), out.stats, z_end, z_end,
+                                 shift=transient * self.T)
+
+    def _count_onsets(self, k, d) -> np.ndarray:
+        onsets = np.zeros(self.contacts.size, dtype=np.int64)
+        for j, e in enumerate(self.contacts):
+            onsets[j] = int(np.count_nonzero((k == e) & (d > 0)))
+        return onsets
+
+    def _section_run(self, t, Y, Z, onsets, ok, msg, y_start, status, t_reached, stats, z_end,
+                     z_reached, shift=0.0) -> "SectionRun":
+        """The SectionRun of the raw states Y, Z at integration times t (X: angles wrapped,
+        memory packed); ``shift``: added to t and t_reached for the run's times (the dense
+        mode's integration restarts at t0 after the transient)."""
+        sysm = self.flow
+        m = t.size
         X = np.empty((m, self.n))
         gaps = np.zeros((m, self.contacts.size))
         g = np.zeros(max(1, int(sysm.n_events)))
         for i in range(m):
-            Y[i] = wrap_angles_of(sysm, Y[i])
-            X[i] = self.pack(Y[i], Z[i])
+            yi = wrap_angles_of(sysm, Y[i].copy())
+            X[i] = self.pack(yi, Z[i])
             if self.contacts.size:
-                sysm.events(float(te[i]), np.ascontiguousarray(Y[i]), sysm.p,
+                sysm.events(float(t[i]), np.ascontiguousarray(yi), sysm.p,
                             np.ascontiguousarray(Z[i]), g)
                 gaps[i] = g[self.contacts]
-        onsets = np.zeros(self.contacts.size, dtype=np.int64)
-        k, d = out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev]
-        for j, e in enumerate(self.contacts):
-            onsets[j] = int(np.count_nonzero((k == e) & (d > 0)))
-        ok = out.status == 0 and m == n
-        msg = "" if ok else f"{sysm.name}: " + failure_message(sysm, out, float(t0), y, zz,
-                                                                 self.rtol, atol)
-        z_end = np.array(Z[-1]) if m else np.array(zz)
-        return SectionRun(X, z_end, onsets, gaps, bool(ok), msg, y)
+        return SectionRun(X, z_end, onsets, gaps, bool(ok), msg, y_start, t=np.array(t) + shift,
+                          Y=Y, Z=Z, status=int(status), t_reached=float(t_reached) + shift,
+                          stats=np.asarray(stats, dtype=np.int64).copy(),
+                          z_reached=np.array(z_reached, dtype=float))
+
+    def _orbit_landing(self, y, zz, n, transient, start, atol, max_steps, progress, desc):
+        """orbit(land=True): one chunked integration from t0 landing on every section time."""
+        from nld.errors import Interrupted
+        from nld.integrators import method_status_message
+        from nld.run.simulate import (INTERRUPTED, event_log_size, integrate_chunked,
+                                      interrupted_message)
+        sysm = self.flow
+        t0 = self.t0
+        k0 = transient if start else transient + 1
+        k = np.arange(k0, k0 + n)
+        te = np.ascontiguousarray(t0 + k * self.T, dtype=float)
+        z = np.array(zz, dtype=float)
+        y = np.ascontiguousarray(y, dtype=float)
+        max_log = event_log_size((te[-1] - t0) / float(sysm.period))
+        out = integrate_chunked(sysm.solve, float(t0), y, te, True, sysm.p, z, self.rtol, atol,
+                                float(sysm.hmax), int(max_steps), int(sysm.n_events), max_log,
+                                self.T, progress=progress, period=self.T,
+                                desc=desc or f"section {sysm.name}")
+        status, t_reached, Y, m, st, ev_t, ev_k, ev_dir, n_logged, Z, interrupted = out
+        m = int(m)
+        # onsets over the recorded steps: after the first recorded point's time (start) or the
+        # transient's end
+        t_rec = t0 + transient * self.T
+        after = ev_t > t_rec
+        onsets = self._count_onsets(ev_k[after], ev_dir[after])
+        if n_logged > max_log:
+            onsets[:] = -1          # the log overflowed: unknown
+        ok = status == 0 and m == n
+        if status == INTERRUPTED:
+            msg = interrupted_message(t_reached, t0, float(te[-1]), m, n)
+        elif ok:
+            msg = ""
+        else:       # (no escape probe: it would repeat the whole run in one call)
+            msg = f"{sysm.name}: " + method_status_message(
+                sysm.method, status, t_reached, st, contacts=int(sysm.n_events) > 0)
+        Zm = np.array(Z[:m])
+        z_end = np.array(Zm[-1]) if m else np.array(zz)
+        run = self._section_run(te[:m], np.array(Y[:m]), Zm, onsets, ok, msg, y, status,
+                                t_reached, st, z_end, z)
+        if interrupted:
+            raise Interrupted(msg or "interrupted", partial=run,
+                              kept=f"{m} of {n} section points (t = {t0:g} .. {t_reached:.6g} s)")
+        return run
 
     def trajectory(self, x, z=None, n_samples: int = 200, *, with_z: bool = False):
         """The flow's states along one step from x: (t (s) from the step's start, Y (n_samples,
