@@ -328,3 +328,28 @@ def test_interrupted_scene_section_keeps_the_points_reached(monkeypatch):
     assert np.array_equal(part.points, full.points[:2])
     assert np.array_equal(part.y_final, two.y_final) and part.t_final == two.t_final
     assert "2 of 5 section points" in e.value.kept
+
+
+def test_one_crossing_locator_for_hyperplane_sections_and_poincare_maps():
+    """nld.systems.section.locate_crossing (Brent on landing integrations) is the locator of
+    hyperplane_section and of PoincareMap: the same crossing from another bracket agrees to the
+    integration error; a Poincaré map's point lies on its plane to ~|dy/dt| 1e-13."""
+    from nld.systems import PoincareMap
+    from nld.systems.core import lorenz
+    from nld.systems.section import land, locate_crossing
+    s = duffing(gamma=0.5)
+    rtol, atol = 1e-10, s.tolerance(1e-10)
+    sec = hyperplane_section(s, observable="x", level=0.0, direction=1, t_end=20.0,
+                             observables=["x", "x_dot"], rtol=rtol)
+    tc = float(sec.table.t.iloc[0])
+    ya, za = land(s, s.y0, s.z0, 0.0, tc - 0.01, rtol, atol, s.hmax, 10**6)
+    t, y, _ = locate_crossing(s, lambda t, y, z: y[0], tc - 0.01, ya, za, tc + 0.01, rtol=rtol)
+    assert abs(t - tc) < 1e-7 and abs(y[0]) < 1e-12 and y[1] > 0
+    # no sign change on the landing integrations: the bracket's right end
+    t, y1, _ = locate_crossing(s, lambda t, y, z: 1.0, tc - 0.01, ya, za, tc + 0.01, rtol=rtol)
+    assert t == tc + 0.01
+    P = PoincareMap(lorenz(), [0.0, 0.0, 1.0], 27.0, +1, rtol=1e-10)
+    x = np.array([1.0, 1.0, 22.0])
+    for _ in range(3):
+        x = P.step(x).x
+        assert abs(x[2] - 27.0) < 1e-9

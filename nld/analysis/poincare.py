@@ -8,7 +8,8 @@
 * :func:`hyperplane_section` -- crossings of a hypersurface g = level in a chosen direction: the
   crank angle = theta0 (mod 2 pi) of a torque-driven crank, or any observable (table column of a
   scene, state of an ODE) crossing a level. Crossings are bracketed on a fine output grid and then
-  located by root-finding (see the function for the accuracy of each mode).
+  located by ``nld.systems.section.locate_crossing`` (Brent on landing integrations, the routine
+  of :class:`nld.systems.PoincareMap`), or on a Hermite interpolant (see the function).
 * :func:`period_of` -- period-n detection of a sequence of section points.
 
 Scenes are given as a :class:`~nld.model.scene_model.Scene`, a built-in name or a TOML path plus
@@ -27,7 +28,6 @@ import pandas as pd
 
 from nld.errors import InputError, Interrupted
 from nld.settings import LYAPUNOV, POINCARE_SPANS, SECTIONS
-from nld.integrators.core import as_solution
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
            "section_scales",
@@ -415,16 +415,20 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     brackets a crossing (a crossing pair inside one grid step is missed: keep the grid finer than
     the fastest return). Then
 
-    * ``refine=True`` (default): the bracket is re-integrated from the stored state at its left
-      end with the integrator landing exactly on each trial time, and Brent's method finds the
-      root to |dt| <= 1e-13 t: the section point is then as accurate as the integration itself
-      (|g| at the point ~1e-12 of the observable's scale).
+    * ``refine=True`` (default): ``nld.systems.section.locate_crossing``, the routine of the
+      Poincaré map (``nld.systems.PoincareMap``) too: the bracket is re-integrated from the
+      stored state at its left end with the integrator landing exactly on each trial time, and
+      Brent's method finds the root to |dt| <= 1e-13 max(1, t): the section point is then as
+      accurate as the integration itself (|g| at the point ~1e-12 of the observable's scale).
+      Where the landing integrations do not change sign over the bracket (g at its right end
+      within the integration error of 0), the right end is the point.
     * ``refine=False``: the state is interpolated by a cubic Hermite polynomial between grid
       points (states and rhs derivatives at both ends) and the root found on it: error
       O(h^4 |y''''|), h the grid step; about 1e-9 relative for 360 points per revolution of a smooth
       observable, worse across an impact (an impact inside the bracket breaks the smoothness).
     """
     from scipy.optimize import brentq
+    from nld.systems.section import XTOL_REL, locate_crossing
     if direction not in (-1, 0, 1):
         raise InputError(f"direction = {direction!r}: must be +1, -1 or 0")
     if _is_system(scene):
@@ -520,18 +524,13 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
             if g0 == 0.0:
                 tc, yc, zc = t0, Y[i].copy(), Z[i].copy()
             elif refine and not interrupted:     # interrupted: the cheap Hermite location
-                cache = {}
-
-                def G(t, i=i, off=off, cache=cache):
-                    yt, zt = _land(system, Y[i], Z[i], grid[i], t, rtol, atol, hmax, max_steps)
-                    cache[t] = (yt, zt)
+                def G(t, yt, zt, off=off):
                     return flow.observe_one(t, yt, zt)[gi] - level - off
                 try:
-                    tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+                    tc, yc, zc = locate_crossing(system, G, t0, Y[i], Z[i], t1, rtol=rtol,
+                                                 atol=atol, hmax=hmax, max_steps=max_steps)
                 except (ValueError, RuntimeError):      # a failed re-integration
                     continue
-                yc, zc = cache[tc] if tc in cache else _land(system, Y[i], Z[i], t0, tc, rtol, atol,
-                                                           hmax, max_steps)
             else:
                 f0, f1 = np.empty(system.n), np.empty(system.n)
                 rhs(t0, Y[i], system.p, Z[i].copy(), f0)
@@ -547,7 +546,8 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
                 def G(t, i=i, off=off, herm=herm):
                     return flow.observe_one(t, herm(t), Z[i])[gi] - level - off
                 try:
-                    tc = brentq(G, t0, t1, xtol=1e-13 * max(1.0, abs(t1)), rtol=4 * np.finfo(float).eps)
+                    tc = brentq(G, t0, t1, xtol=XTOL_REL * max(1.0, abs(t1)),
+                                rtol=4 * np.finfo(float).eps)
                 except ValueError:      # the Hermite interpolant does not change sign: midpoint guess
                     continue
                 yc, zc = herm(tc), Z[i].copy()
@@ -580,20 +580,6 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
 def _scene_provenance(sc, system) -> dict:
     from nld.run.simulate import provenance
     return provenance(sc, integrator=_method(system))
-
-
-def _land(system, y, z, t0, t1, rtol, atol, hmax, max_steps):
-    """State at t1 from (t0, y, z): DOPRI5 landing exactly on t1 (raises RuntimeError on failure)."""
-    if t1 <= t0:
-        return np.array(y, dtype=float), np.array(z, dtype=float)
-    zz = np.array(z, dtype=float)
-    out = system.solve(float(t0), np.ascontiguousarray(y, dtype=float), np.array([float(t1)]), True,
-                       system.p, zz, float(rtol), atol, 0.0, hmax, int(max_steps),
-                       int(system.n_events), 1)
-    out = as_solution(out)
-    if out.status < 0 or out.n_out < 1:
-        raise RuntimeError("re-integration failed")
-    return out.Y[0].copy(), zz
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -34,6 +34,7 @@ from nld.errors import InputError, SolveError
 from nld.integrators.core import as_solution
 from nld.integrators.tangent import N_DIAG, DG_DIV, DG_LOGDET, DG_GRAZE, crossing_diag
 from nld.systems.core import failure_message, wrap_angles as wrap_angles_of
+from nld.systems.section import locate_crossing
 
 __all__ = ["MapStep", "SectionRun", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
            "contact_events"]
@@ -518,11 +519,13 @@ class PoincareMap(_FlowMap):
     ``direction`` (+1: normal . f > 0).
 
     The crossing is bracketed on the dense output (``dt`` apart, s; default 1/50 of the flow's
-    ``hmax`` or 0.01) after a dead time ``t_min`` (s, default 2 dt) and located by Newton on the
-    crossing time (landing integrations, |normal . y - offset| <= rtol * scale). Its Jacobian is
-    the projection (I - f n^T / (n . f)) Phi of the flow's state-transition matrix Phi to the
-    return time (the return time's dependence on the start), which maps into the section's
-    tangent space; its multipliers (``nld.analysis.orbits``) are those of that restriction.
+    ``hmax`` or 0.01) after a dead time ``t_min`` (s, default 2 dt) and located by
+    ``nld.systems.section.locate_crossing``, the routine of ``hyperplane_section`` too: Brent's
+    method on the crossing time, g evaluated on landing integrations, |dt| <= 1e-13 max(1, t) s.
+    Its Jacobian is the projection (I - f n^T / (n . f)) Phi of the flow's state-transition
+    matrix Phi to the return time (the return time's dependence on the start), which maps into
+    the section's tangent space; its multipliers (``nld.analysis.orbits``) are those of that
+    restriction.
     """
 
     def __init__(self, system, normal, offset: float = 0.0, direction: int = 1, *,
@@ -567,41 +570,13 @@ class PoincareMap(_FlowMap):
                 g0, g1 = self._g(prev_y), self._g(yi)
                 if (te[i] - self.t0 > self.t_min and self.direction * g0 < 0.0
                         and self.direction * g1 >= 0.0):
-                    return self._refine(prev_t, prev_y, prev_z, te[i], g0, g1)
+                    return locate_crossing(self.flow, lambda t, yy, zz: self._g(yy), prev_t,
+                                           prev_y, prev_z, te[i], rtol=self.rtol,
+                                           max_steps=self.step_budget())
                 prev_t, prev_y, prev_z = te[i], yi, out.Z[i].copy()
             t, y, z = te[-1], out.Y[-1].copy(), out.Z[-1].copy()
         raise SolveError(f"{self.flow.name}: no crossing of the section within t_max = "
                          f"{self.t_max:g} s")
-
-    def _refine(self, ta, ya, za, tb, ga, gb):
-        """Landing integrations from (ta, ya) with the Illinois method on the crossing time."""
-        scale = float(np.abs(self.normal) @ self.flow.scales)
-        a, b = ta, tb
-        fa, fb = ga, gb
-        side = 0
-        for _ in range(60):
-            tc = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-            if not (a < tc < b):
-                tc = 0.5 * (a + b)
-            if tc == ta:
-                yc, zc = ya.copy(), np.array(za)
-            else:
-                out, zc, _ = self._plain(ya, za, ta, tc)
-                yc = out.Y[0].copy()
-            fc = self._g(yc)
-            if abs(fc) <= self.rtol * scale or b - a < 1e-14 * max(1.0, abs(b)):
-                return tc, yc, zc
-            if (fc < 0) == (fa < 0):
-                a, fa = tc, fc
-                if side == -1:
-                    fb *= 0.5
-                side = -1
-            else:
-                b, fb = tc, fc
-                if side == 1:
-                    fa *= 0.5
-                side = 1
-        return tc, yc, zc
 
     def step(self, x, z=None, *, jacobian: bool = False, divergence: bool = False,
              relabel: bool = False) -> MapStep:
