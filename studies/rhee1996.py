@@ -66,7 +66,14 @@ QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_r
              census=dict(starts=2, transient=10, record=16, rtol=1e-7, always=["mu=0.3"]),
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
                         transient=10, values=[0.09, 0.1], rtol=1e-8))
-MODE_LABELS = {"quick": "QUICK MODE: short transients and averages"}
+# smoke (the test suite's default run; the quick mode is its -m slow variant): the quick mode's pages
+# and checks on the sweeps' end points, with shorter spans
+SMOKE = dict(QUICK, transient_revs=4, section_revs=10, lyap_revs=8, spec_revs=3, sweep_transient=4,
+             sweep_revs=6, sweep_lyap=6, clearances=[0.05e-3, 0.5e-3], frictions=[0.0, 0.3],
+             census=dict(QUICK["census"], transient=4),
+             route=dict(QUICK["route"], transient=5, rtol=1e-7))
+MODE_LABELS = {"quick": "QUICK MODE: short transients and averages",
+               "smoke": "SMOKE MODE (test only): the quick mode's pages on shorter spans"}
 
 # name -> (group, overrides, clearance [m], mu)
 CASES = {
@@ -608,12 +615,13 @@ def _discussion(summary, pts_c, pts_f):
 # ----------------------------------------------------------------------------------------- main
 
 
-def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
-    """Run the study (module docstring); write the PDF and the data files; return the PDF."""
+def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
+    """Run the study (module docstring); write the PDF and the data files; return the PDF.
+    smoke: the test suite's short mode (SMOKE)."""
     from nld.model.scene import load_scene
     from nld.run.simulate import crank_period
     from nld.study import Study
-    study = Study(globals(), quick, out_dir)
+    study = Study(globals(), quick, out_dir, smoke=smoke)
     st = study.settings
     st["workers"] = study.workers(st["workers"])
     base = load_scene(SCENE)
@@ -811,4 +819,4 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
 
 if __name__ == "__main__":
     import sys
-    print(main(quick="--quick" in sys.argv))
+    print(main(quick="--quick" in sys.argv, smoke="--smoke" in sys.argv))

@@ -7,6 +7,8 @@ import importlib.util
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -29,11 +31,15 @@ def count_pages(path) -> int:
     return len(PdfReader(str(path)).pages)
 
 
-def run_quick(filename: str, tmp_path_factory, **kwargs):
-    """(study module, output directory, PDF path) of the study's quick mode."""
+def run_quick(filename: str, tmp_path_factory, mode: str = "quick", **kwargs):
+    """(study module, output directory, PDF path) of the study's quick mode (``mode="smoke"``: its
+    smoke mode). The module gets ``MODE`` (the mode's name) and ``MODE_SETTINGS`` (its dict)."""
     study = load_study(filename)
-    out = tmp_path_factory.mktemp(Path(filename).stem)
+    out = tmp_path_factory.mktemp(f"{Path(filename).stem}_{mode}")
+    if mode == "smoke":
+        kwargs["smoke"] = True
     pdf = study.main(quick=True, out_dir=out, **kwargs)
+    study.MODE, study.MODE_SETTINGS = mode, getattr(study, mode.upper())
     return study, out, pdf
 
 
@@ -86,8 +92,13 @@ class ReportRecorder:
         return float(row.split(" s")[0]) if row[:1].isdigit() else float("nan")
 
 
-def run_quick_recorded(filename: str, tmp_path_factory):
-    """(study module, output directory, PDF path, ReportRecorder) of the study's quick mode."""
+def run_quick_recorded(filename: str, tmp_path_factory, mode: str = "quick"):
+    """(study module, output directory, PDF path, ReportRecorder) of the study's quick (or smoke)
+    mode."""
     with ReportRecorder() as rec:
-        study, out, pdf = run_quick(filename, tmp_path_factory)
+        study, out, pdf = run_quick(filename, tmp_path_factory, mode)
     return study, out, pdf, rec
+
+
+# the modes a study's test file runs: smoke in the default run, the quick mode as its -m slow variant
+MODES = ["smoke", pytest.param("quick", marks=pytest.mark.slow)]

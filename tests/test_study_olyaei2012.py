@@ -11,13 +11,14 @@ import pytest
 
 from nld.output.io import load_table
 from nld.output.report import Report, source_date_epoch
-from study_harness import count_pages, run_quick_recorded
+from study_harness import MODES, count_pages, run_quick_recorded
 
 
-@pytest.fixture(scope="module")
-def quick_run_rec(tmp_path_factory):
-    """The quick run (once), with what went into the report recorded (study_harness.ReportRecorder)."""
-    return run_quick_recorded("olyaei2012.py", tmp_path_factory)
+@pytest.fixture(scope="module", params=MODES)
+def quick_run_rec(request, tmp_path_factory):
+    """The smoke run (the quick run under -m slow), once, with what went into the report recorded
+    (study_harness.ReportRecorder)."""
+    return run_quick_recorded("olyaei2012.py", tmp_path_factory, request.param)
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +30,7 @@ def test_quick_writes_pdf_and_data(quick_run):
     study, out, pdf = quick_run
     assert pdf == out / "olyaei2012.pdf" and pdf.is_file()
     data = pdf.read_bytes()
-    assert data.startswith(b"%PDF") and b"quick" in data
+    assert data.startswith(b"%PDF") and study.MODE.encode() in data
     _, prov = load_table(out / "olyaei2012.parquet")
     states = [k for k, v in prov["states"].items() if v]
     # title page(s) + 4 text pages, summary table, 4 sweep figures, tolerance-check table, (the two
@@ -53,16 +54,16 @@ def test_quick_writes_pdf_and_data(quick_run):
 def test_sweeps_stored_with_provenance(quick_run):
     study, out, _ = quick_run
     df, prov = load_table(out / "olyaei2012.parquet")
-    assert prov["mode"] == "quick" and prov["scene"] == "slider_crank_olyaei"
-    assert prov["rtol"] == study.QUICK["rtol"] and "git_hash" in prov
+    assert prov["mode"] == study.MODE and prov["scene"] == "slider_crank_olyaei"
+    assert prov["rtol"] == study.MODE_SETTINGS["rtol"] and "git_hash" in prov
     # the sweeps and the checks of their points not called regular (NAME_check)
     assert set(study.SWEEPS) <= set(df["case"]) <= set(study.SWEEPS) | {f"{n}_check" for n in study.SWEEPS}
     for name, key in study.SETTINGS_KEY.items():
         part = df[df["case"] == name]
-        assert np.allclose(sorted(part["value"].astype(float).unique()), sorted(study.QUICK[key]))
+        assert np.allclose(sorted(part["value"].astype(float).unique()), sorted(study.MODE_SETTINGS[key]))
         ok = part[part["status"] == "ok"]
         # every finished point has its section and an exponent
-        assert (ok.groupby("index")["rev"].count() == study.QUICK["revs"]).all()
+        assert (ok.groupby("index")["rev"].count() == study.MODE_SETTINGS["revs"]).all()
         assert np.isfinite(ok["lyapunov"]).all()
 
 
@@ -94,7 +95,7 @@ def test_points_and_summary_follow_from_the_sweeps(quick_run):
             else:
                 assert final == want
         ok = g[g["status"] == "ok"]
-        assert (ok["section_points"] == study.QUICK["revs"]).all()
+        assert (ok["section_points"] == study.MODE_SETTINGS["revs"]).all()
         s = summ.loc[name]
         assert s["points"] == len(g)
         assert s["max_lambda_per_rev"] == pytest.approx(g["lambda_per_rev"].max(), rel=1e-12)
@@ -126,7 +127,7 @@ def test_showcase_states(quick_run):
         if st is None:
             continue
         s = secs[secs["case"] == k]
-        assert len(s) == study.QUICK["case_revs"] == st["section_points"]
+        assert len(s) == study.MODE_SETTINGS["case_revs"] == st["section_points"]
         lam, unc = st["lambda_per_rev"], st["lambda_unc_per_rev"]
         if lam - unc > 0:
             assert st["verdict"] == ("chaotic" if len(s) >= study.MIN_SECTION_POINTS else "λ1 > 0, short")
@@ -166,7 +167,7 @@ def test_tolerance_check_covers_the_largest_exponents(quick_run):
             assert np.isfinite(r[f"lambda {key}"]) and r[f"unc {key}"] >= 0
         # the sweep's exponent is the tangent one at the sweep's tolerance, from the same kind of
         # section: the check at that tolerance repeats it from a fresh section of the same length
-        key = f"tangent rtol={study.QUICK['lyap_rtol']:g}"
+        key = f"tangent rtol={study.MODE_SETTINGS['lyap_rtol']:g}"
         assert r[f"lambda {key}"] == pytest.approx(r["sweep_lambda_per_rev"], rel=1e-9)
 
 
@@ -185,7 +186,7 @@ def test_eccentricity_over_clearance_saved(quick_run):
 def test_figures_compare_and_state_their_estimator(quick_run_rec):
     study, out, _, rec = quick_run_rec
     _, prov = load_table(out / "olyaei2012.parquet")
-    q = study.QUICK
+    q = study.MODE_SETTINGS
     sweeps = [rec.figure(f"against the {study.SWEEPS[n][1]} ({study.FIXED[n]})") for n in study.SWEEPS]
     for f in sweeps:
         cap = f["caption"]

@@ -11,13 +11,14 @@ import pytest
 from nld.analysis.peaks import peak_interval
 from nld.output.io import load_table
 from nld.output.report import Report, source_date_epoch
-from study_harness import count_pages, run_quick_recorded
+from study_harness import MODES, count_pages, run_quick_recorded
 
 
-@pytest.fixture(scope="module")
-def quick_run_rec(tmp_path_factory):
-    """The quick run (once), with what went into the report recorded (study_harness.ReportRecorder)."""
-    return run_quick_recorded("rhee1996.py", tmp_path_factory)
+@pytest.fixture(scope="module", params=MODES)
+def quick_run_rec(request, tmp_path_factory):
+    """The smoke run (the quick run under -m slow), once, with what went into the report recorded
+    (study_harness.ReportRecorder)."""
+    return run_quick_recorded("rhee1996.py", tmp_path_factory, request.param)
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +30,7 @@ def test_quick_writes_pdf_and_data(quick_run):
     study, out, pdf = quick_run
     assert pdf == out / "rhee1996.pdf" and pdf.is_file()
     data = pdf.read_bytes()
-    assert data.startswith(b"%PDF") and b"quick" in data
+    assert data.startswith(b"%PDF") and study.MODE.encode() in data
     # title page(s) + intro, findings, case table, sweep table, sections, 2 sweeps, spectra,
     # convergence, discussion; the route to chaos: branch figure, branch table, text; the
     # coexisting motions (attractor census) table
@@ -45,7 +46,7 @@ def test_summary_matches_stored_series(quick_run):
     runs, prov = load_table(out / "rhee1996.parquet")
     summary, _ = load_table(out / "rhee1996_summary.csv")
     sections, _ = load_table(out / "rhee1996_sections.parquet")
-    assert prov["mode"] == "quick" and prov["scene"] == "four_bar"
+    assert prov["mode"] == study.MODE and prov["scene"] == "four_bar"
     assert set(summary["case"]) == set(study.CASES) == set(runs["case"])
     peaks, _ = load_table(out / "rhee1996_peaks.csv")
     for _, row in summary.iterrows():
@@ -53,7 +54,7 @@ def test_summary_matches_stored_series(quick_run):
         assert row["rms_Fn"] == pytest.approx(np.sqrt(np.mean(fn ** 2)), rel=1e-9)
         # per-revolution peaks, located on the stored run: never below its samples of that revolution
         pk = peaks[peaks["case"] == row["case"]].sort_values("rev")
-        assert list(pk["rev"]) == list(range(study.QUICK["spec_revs"]))
+        assert list(pk["rev"]) == list(range(study.MODE_SETTINGS["spec_revs"]))
         t = runs.loc[runs["case"] == row["case"], "t"].to_numpy()
         period = pk["t_start"].iloc[1] - pk["t_start"].iloc[0]
         for _, p in pk.iterrows():
@@ -66,7 +67,7 @@ def test_summary_matches_stored_series(quick_run):
         assert row["Fn_rev_ci95"] == pytest.approx(iv.half_width, rel=1e-12)
         assert row["max_Fn"] == pk["peak"].max() >= fn.max() * (1 - 1e-12) and row["max_Fn"] > row["Fn_rev_mean"]
         assert row["status"] == "ok"
-        assert (sections["case"] == row["case"]).sum() == study.QUICK["section_revs"]
+        assert (sections["case"] == row["case"]).sum() == study.MODE_SETTINGS["section_revs"]
         assert np.isfinite(row["lambda_per_rev"]) and row["lambda_unc_per_rev"] >= 0
 
 
@@ -78,10 +79,10 @@ def test_sweep_exponents_match_table(quick_run):
                                                                    "friction_check"}
     sw = sweeps[sweeps["case"] == "friction"]
     fr = sw.drop_duplicates("index")
-    assert sorted(fr["value"].astype(float)) == sorted(study.QUICK["frictions"])
+    assert sorted(fr["value"].astype(float)) == sorted(study.MODE_SETTINGS["frictions"])
     pts = study.sweep_points(sw, period, clearance=0.25e-3)
     assert np.allclose(pts["lambda_per_rev"], fr.sort_values("index")["lyapunov"] * period)
-    assert len(sw[sw["index"] == 0]) == study.QUICK["sweep_revs"]
+    assert len(sw[sw["index"] == 0]) == study.MODE_SETTINGS["sweep_revs"]
     # friction makes the four-bar regular: the largest coefficient has a smaller exponent than mu = 0
     assert pts["lambda_per_rev"].iloc[-1] < pts["lambda_per_rev"].iloc[0]
 
@@ -115,7 +116,7 @@ def test_verdicts_need_the_minimum_section(quick_run):
     summary, _ = load_table(out / "rhee1996_summary.csv")
     assert study.MIN_SECTION_POINTS > 0
     for _, r in summary.iterrows():
-        assert r["section_points"] == study.QUICK["section_revs"]
+        assert r["section_points"] == study.MODE_SETTINGS["section_revs"]
         lam, unc = r["lambda_per_rev"], r["lambda_unc_per_rev"]
         expect = ("regular" if lam + unc < 0 else
                   ("chaotic" if r["section_points"] >= study.MIN_SECTION_POINTS else "λ1 > 0, short")
@@ -185,7 +186,7 @@ def test_eccentricity_over_clearance_saved(quick_run):
 def test_figures_compare_and_state_their_estimator(quick_run_rec):
     study, out, _, rec = quick_run_rec
     _, prov = load_table(out / "rhee1996_summary.csv")
-    q = study.QUICK
+    q = study.MODE_SETTINGS
     period = 2 * np.pi / prov["scene_parameters"]["driver"]["speed"]
     # every exponent: estimator, tolerance, averaging span and the uncertainty, from the settings
     for words, revs in (("Poincaré sections", q["lyap_revs"]), ("against the clearance", q["sweep_lyap"]),
