@@ -199,7 +199,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
         check_rtol(rtol)
     else:
         from nld.kernel.compile import compile_scene
-        from nld.run.simulate import _state_arg, initial_state
+        from nld.run.simulate import state_arg, initial_state
         from nld.systems.core import SceneSystem
         sc = _load(scene, overrides)
         if sc.driver is None or sc.driver.mode != "speed":
@@ -219,15 +219,15 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
         # state's scales unless both y0 and z0 are given (then the scales at y0)
         if y0 is None or z0 is None:
             y_a, z_a, _ = initial_state(kern)
-            y = y_a if y0 is None else _state_arg("y0", y0, kern.n_state)
+            y = y_a if y0 is None else state_arg("y0", y0, kern.n_state)
             if z0 is None:
                 z = z_a.copy()
                 kern.init_modes(0.0, y, kern.params(sc), z)
             else:
-                z = _state_arg("z0", z0, kern.n_z)
+                z = state_arg("z0", z0, kern.n_z)
             system = SceneSystem(sc, kernel=kern, method=sc.method or "dopri5")
         else:
-            y, z = _state_arg("y0", y0, kern.n_state), _state_arg("z0", z0, kern.n_z)
+            y, z = state_arg("y0", y0, kern.n_state), state_arg("z0", z0, kern.n_z)
             system = SceneSystem(sc, kernel=kern, method=sc.method or "dopri5", y0=y)
     smap = StroboscopicMap(system, rtol=rtol)
     T = smap.T
@@ -248,7 +248,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
     table = pd.DataFrame({"rev": k[:n].astype(np.int64), "t": run.t})
     if sc is not None:
         from nld.interrupt import deferred
-        from nld.run.simulate import _failure_context, provenance
+        from nld.run.simulate import failure_context, provenance
         ncols = len(kern.columns)
         rows = np.empty((n, ncols))
         with deferred() as sig:
@@ -262,7 +262,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
         msg = (interrupted_message(t_reached, 0.0, t_end, n, revs, sc) if status == INTERRUPTED
                else _status_text(system, status, t_reached, run.stats))
         if status < 0:
-            msg += _failure_context(kern, rows, n)
+            msg += failure_context(kern, rows, n)
         if interrupted and status != INTERRUPTED and n < revs:
             status, msg = INTERRUPTED, interrupted_message(t_reached, 0.0, t_end, n, revs, sc)
         prov = provenance(sc, kern, rtol=rtol, t_end=t_end, wall=time.perf_counter() - start,

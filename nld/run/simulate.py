@@ -147,7 +147,7 @@ def output_rows(scene: Scene, span: float, samples_per_rev: int, ncols: int | No
     return max(2, int(round(n)))
 
 
-def _state_arg(name: str, v, n: int) -> np.ndarray:
+def state_arg(name: str, v, n: int) -> np.ndarray:
     """A start state given by the caller: n finite numbers."""
     try:
         a = np.asarray(v, dtype=float).ravel()
@@ -334,14 +334,14 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     t_eval = writable_vector(t_eval)        # one compiled observe_all / solve for every caller
     if y0 is None or z0 is None:
         y0_, z0_, q_init = initial_state(kern)
-        y0 = y0_ if y0 is None else _state_arg("y0", y0, kern.n_state)
+        y0 = y0_ if y0 is None else state_arg("y0", y0, kern.n_state)
         if z0 is None:
             z0 = z0_.copy()
             kern.init_modes(t0, y0, p, z0)     # the branches of this start state and parameters
         else:
-            z0 = _state_arg("z0", z0, kern.n_z)
+            z0 = state_arg("z0", z0, kern.n_z)
     else:
-        y0, z0 = _state_arg("y0", y0, kern.n_state), _state_arg("z0", z0, kern.n_z)
+        y0, z0 = state_arg("y0", y0, kern.n_state), state_arg("z0", z0, kern.n_z)
         q_init = None
     z = np.array(z0, dtype=float)
     ncols = len(kern.columns)
@@ -422,7 +422,7 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
         ev = pd.DataFrame({"t": ev_t[:nl], "joint": [names[k] for k in ev_k[:nl]], "direction": ev_dir[:nl]})
         y_final = Y[n_out - 1].copy() if n_out else np.asarray(y0, float)
         if status < 0:
-            message += _failure_context(kern, rows, n_out)
+            message += failure_context(kern, rows, n_out)
     wall = time.perf_counter() - start
     table = pd.DataFrame(rows, columns=kern.columns, copy=False)    # no transposing copy (1 s per 10^6 rows)
     table.insert(0, "t", t_eval[: len(rows)])
@@ -564,7 +564,9 @@ def interrupted_message(t_reached, t0, t_end, n_out, n_eval, scene=None) -> str:
             f"{n_out} of {n_eval} output rows")
 
 
-def _failure_context(kern: Kernel, rows, n_out) -> str:
+def failure_context(kern: Kernel, rows, n_out) -> str:
+    """What a failed run's last output row says of its clearance joints (appended to its message;
+    also used by nld.analysis.poincare for a section that stopped)."""
     if not n_out or not kern.topo.clearance:
         return ""
     last = rows[n_out - 1]
