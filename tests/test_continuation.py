@@ -40,6 +40,43 @@ def test_grazing_located_where_the_free_orbit_reaches_the_stop(impact_orbit):
         assert len(tab) == len(br.values) and set(tab["stable"]) <= {"stable", "unstable", ""}
 
 
+def test_arclength_crosses_a_kink_by_a_natural_step(impact_orbit, monkeypatch):
+    """Where the pseudo-arclength corrector fails at every step length (a non-smooth point of the
+    branch: a contact gained or lost gives the branch a kink, no tangent), the continuation takes
+    a step at a fixed parameter value across it, says so, and goes on; the orbit beyond is the one
+    natural continuation finds there. The kink is simulated: the corrector refuses every point
+    beyond d = 2.0 until the natural step has crossed it."""
+    import nld.analysis.continuation as cont
+    S, o = impact_orbit
+    real = cont._arclength_corrector
+    state = {"crossed": False, "refused": 0}
+
+    def corrector(fam, like, o_prev, V_pred, t_vec, lam_scale, frozen, tol, max_iter=8):
+        if not state["crossed"] and V_pred[-1] * lam_scale > 2.0:
+            state["refused"] += 1
+            return None
+        return real(fam, like, o_prev, V_pred, t_vec, lam_scale, frozen, tol, max_iter)
+
+    real_step = cont._natural_step
+
+    def natural_step(*a, **k):
+        out = real_step(*a, **k)
+        state["crossed"] = out is not None
+        return out
+    monkeypatch.setattr(cont, "_arclength_corrector", corrector)
+    monkeypatch.setattr(cont, "_natural_step", natural_step)
+    br = continue_orbit(S, o, "d", range=(1.5, 2.4), max_points=60)
+    assert state["refused"] >= 2 and state["crossed"]
+    assert "crossed by a natural step" in br.message and max(br.values) >= 2.4 - 1e-9
+    # the point past the kink, d0 + ds = the first value beyond 2.0, is the natural continuation's
+    x = min(v for v in br.values if v > 2.0)
+    before = [v for v in br.values if v <= 2.0]
+    assert x == pytest.approx(max(before) + 0.9 / 50, rel=1e-12)
+    ref = continue_orbit(S, o, "d", values=before + [x], locate=False)
+    got = br.orbits[list(br.values).index(x)]
+    assert np.allclose(got.points, ref.orbits[-1].points, atol=1e-8)
+
+
 def test_period_doubling_where_the_brute_force_diagram_doubles():
     S = duffing(gamma=0.20)
     o = periodic_orbit(S, 1, transient=50, rtol=1e-10)

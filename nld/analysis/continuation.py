@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from nld.errors import InputError, SolveError
+from nld.errors import InputError, SceneError, SolveError
 from nld.analysis.orbits import PeriodicOrbit, _Shooting, _finite, check_period, periodic_orbit
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
 
@@ -255,7 +255,7 @@ def _arclength_corrector(fam, like_map, o_prev: PeriodicOrbit, V_pred, t_vec, la
         lam = V[-1] * lam_scale
         try:
             m = fam.map_at(lam, like_map)
-        except InputError:
+        except (InputError, SceneError):     # the Newton left the parameter's domain (mu < 0)
             return None
         sh = _Shooting(m, p, multiple)
         npts = p if multiple else 1
@@ -265,7 +265,7 @@ def _arclength_corrector(fam, like_map, o_prev: PeriodicOrbit, V_pred, t_vec, la
             dl = 1e-6 * max(abs(lam), lam_scale * 1e-3)
             m2 = fam.map_at(lam + dl, like_map)
             r2, _, _ = _Shooting(m2, p, multiple).evaluate(X, Z, False)
-        except SolveError:
+        except (SolveError, InputError, SceneError):
             return None
         if not (_finite(r) and _finite(J) and _finite(r2)):
             return None
@@ -475,6 +475,7 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
     lam_scale = max(abs(b - a) * ARCLENGTH_PARAM_UNIT, 1e-300)
     segments = []
     msgs = []
+    crossed = []            # non-smooth points crossed by a natural step
     for target in ([b, a] if a != v0 else [b]):
         if abs(target - v0) <= 1e-12 * lam_scale:
             continue
@@ -498,9 +499,17 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
                     break
                 h *= 0.5
             if ok is None:
-                msgs.append(f"towards {target:g}: the corrector failed at {fam.param} = {lam:g} "
-                            f"even with a step of {h * lam_scale:.3g}")
-                break
+                # a non-smooth point (a contact gained or lost, grazing): the branch has a kink
+                # there and no tangent; step across it at a fixed parameter value instead (what
+                # natural continuation does), then resume the arclength from the far side
+                ok = _natural_step(fam, like, o, lam, direction, ds, tol)
+                if ok is None:
+                    msgs.append(f"towards {target:g}: the corrector failed at {fam.param} = "
+                                f"{lam:g} even with a step of {h * lam_scale:.3g}, and so did "
+                                f"natural steps of {ds:.3g} ... {ds * NATURAL_STEP_MIN:.3g}")
+                    break
+                crossed.append(f"{fam.param} = {lam:g} -> {ok[1]:g}")
+                h = ds / lam_scale
             o_new, lam_new, its = ok
             pts.append((lam_new, o_new))
             if on_point is not None:
@@ -520,7 +529,31 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
     seg_b = segments[0] if segments else []
     seg_a = segments[1] if len(segments) > 1 else []
     ordered = list(reversed(seg_a)) + [(v0, orbit)] + seg_b
+    if crossed:
+        msgs.append("crossed by a natural step where the arclength corrector failed (a non-smooth "
+                    "point of the branch): " + ", ".join(crossed))
     return [x for x, _ in ordered], [o for _, o in ordered], "; ".join(msgs) or "completed"
+
+
+NATURAL_STEP_MIN = 1e-2     # the shortest natural step tried across a non-smooth point, x ds
+
+
+def _natural_step(fam, like, o, lam, direction, ds, tol):
+    """(orbit, value, iterations) at lam + direction * d from the orbit o at lam, d = ds, ds/4,
+    ... down to NATURAL_STEP_MIN ds (a Newton at a fixed parameter value from o's points), or
+    None. Used where the pseudo-arclength corrector fails at ever shorter steps: at a contact
+    gained or lost the branch has a kink (no tangent), which a fixed-value step does not need."""
+    d = ds
+    while d >= NATURAL_STEP_MIN * ds * (1 - 1e-12):
+        x = lam + direction * d
+        try:
+            on = _orbit_at(fam, x, like, o, tol=tol)
+        except (SolveError, InputError, SceneError):
+            on = None
+        if on is not None and on.converged:
+            return on, x, int(on.iterations)
+        d *= 0.25
+    return None
 
 
 # ---------------------------------------------------------------------------------------------------
