@@ -15,18 +15,21 @@ initial step, output writing and statuses are nld.integrators.core's.
 from .core import (
     MAX_STEPS,
     NON_FINITE,
+    SINGULAR,
     STEP_UNDERFLOW,
+    STIFF,
     STOPPED,
     SUCCESS,
     Solution,
+    method_status_message,
     native,
     no_events,
     no_on_event,
 )
 from .dopri5 import dopri5, dopri5_fixed, status_message
-from .dop853 import STIFF, dop853, dop853_fixed
+from .dop853 import dop853, dop853_fixed
 from .events import EVENT_SAMPLES, MAX_EVENT_SAMPLES, check_event_samples
-from .rosenbrock import SINGULAR, rodas, rodas_fixed
+from .rosenbrock import rodas, rodas_fixed
 
 # The one registry of the native methods: name -> (module in nld.integrators, integrator function,
 # name of the kernel's solve function). The code generator binds one solve function per entry to
@@ -132,55 +135,6 @@ def solve_method(kernel, method, t0, y0, t_eval, land, p, z, rtol, atol, h0, hma
     from .scipy_backend import solve_scipy
     return solve_scipy(kernel, y0, z, t_eval, p, method.split(":", 1)[1], rtol, atol, t0=t0,
                        hmax=hmax, max_steps=max_steps, max_log=max_log, land=land)
-
-
-def method_status_message(method: str, status, t_reached, stats, *, contacts: bool = True,
-                          escape=None) -> str:
-    """One-line description of a result of any method (dopri5's wording, method-aware hints).
-
-    contacts: the system has contact (or other) events; False drops the "stiff contact" guess
-    from a step-size underflow. escape: (|y|, t) where the solution was last seen growing without
-    bound (nld.systems.core.escape_probe); given, a step-size underflow or a non-finite state is
-    reported as that escape, not as a tolerance or stiffness problem."""
-    st = [int(v) for v in stats] + [0] * max(0, 7 - len(stats))
-    t = float(t_reached)
-    status = int(status)
-    rej = "rejections not reported" if st[2] < 0 else f"{st[2]} rejected"
-    counts = f"{st[1]} steps, {rej}, {st[3]} rhs evaluations"
-    if len(stats) > 5 and (st[5] or st[6]):
-        counts += f", {st[5]} Jacobians, {st[6]} LU decompositions"
-    stiff = method in ("rodas", "scipy:Radau", "scipy:LSODA")
-    hint = "the tolerance" if stiff else "the tolerance or use the stiff solver (method='rodas')"
-    if status == SUCCESS:
-        return f"{method}: reached t_end = {t:.9g} s ({counts})"
-    if status == STOPPED:
-        return f"{method}: stopped by an event at t = {t:.9g} s ({counts}, {st[4]} events)"
-    if status == MAX_STEPS:
-        what = "rhs evaluation budget (max_steps)" if method.startswith("scipy:") else "max_steps"
-        return (f"{method}: {what} exceeded at t = {t:.9g} s after {st[0]} steps: raise max_steps, "
-                f"loosen {hint}")
-    if escape is not None and status in (STEP_UNDERFLOW, NON_FINITE):
-        norm, t_seen = escape
-        what = "step size underflow" if status == STEP_UNDERFLOW else "non-finite value (NaN/inf)"
-        return (f"{method}: {what} at t = {t:.9g} s: the solution grows without bound (|y| = "
-                f"{norm:.3g} at t = {t_seen:.9g} s; an escape to infinity or a finite-time blow-up, "
-                f"not a tolerance problem: check the model, its parameters and the initial state)")
-    if status == STEP_UNDERFLOW:
-        guess = "stiff contact or a singularity?" if contacts else "a singularity or a stiff system?"
-        return (f"{method}: step size underflow at t = {t:.9g} s: the tolerance cannot be met "
-                f"({guess} loosen {hint})")
-    if status == NON_FINITE:
-        return (f"{method}: non-finite value (NaN/inf) in the solution at t = {t:.9g} s: the state "
-                f"diverged (check parameters and initial conditions, or loosen {hint})")
-    if status == STIFF:
-        return (f"{method}: the problem became stiff at t = {t:.9g} s ({counts}): the step size is "
-                f"limited by stability, not accuracy, and an explicit method would go on with noisy, "
-                f"possibly wrong stiff components; use method='rodas' (if the cause is a jump of the "
-                f"forces instead, e.g. Coulomb friction sticking, use dopri5 or a regularized friction law)")
-    if status == SINGULAR:
-        return (f"{method}: the iteration matrix I/(h*gamma) - J was singular {5} times in a row at "
-                f"t = {t:.9g} s (check the model for a singular mass matrix or NaN Jacobian entries)")
-    return f"{method}: unknown integrator status {status} at t = {t:.9g} s"
 
 
 def _drop_stale_caches():

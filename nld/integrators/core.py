@@ -1,16 +1,20 @@
 """What every native integrator shares: the typed result, the compiled-function arguments, and the
 step-control core (accept/reject, PI step-size control, initial step, output writing, statuses).
 
-Method files (``dopri5.py``, ``dop853.py``, ``rosenbrock.py``, ``tangent.py``) hold their tableau,
-their stage computation, error estimate and dense output, and call the helpers below for
-everything else (the verdict on a step ``judge``, the PI controller ``pi_next_step``, the shrink
-after a rejection, the initial step, landing on output times, output writing, the counters), as
-scipy's ``_ivp/rk.py`` sits over ``base.py`` and diffrax's ``_solver/`` over
-``_step_size_controller/``. The helpers on scalars are ordinary compiled functions, cached on
-their own and shared by every integrator. Those that take several arrays and run every step (the
-stages, the event location, output writing) are inlined by numba (``inline='always'``): called
-out of line, the reference counting of their array arguments made a step 15 % slower
-(measured: benchmarks/bench_builds.py); inlining costs compile time once per machine.
+Method files (``dopri5.py``, ``dop853.py``, ``rosenbrock.py``, ``tangent.py``, ``delay.py``) hold
+their tableau, their stage computation, error estimate and dense output, and call the helpers
+below for everything else, as scipy's ``_ivp/rk.py`` sits over ``base.py`` and diffrax's
+``_solver/`` over ``_step_size_controller/``: the start of a run (``new_run``, ``start``,
+``first_step``), the loop head (``running``), the next try (``next_step``), the verdict on a step
+and the counters (``judge``, ``settle``), the PI controller (``pi_start``, ``pi_control``), the
+error norm (``rms_error``), the event hand-off (``scan_due``, ``relocate``, ``retake_finite``,
+``fire``, ``fire_and_restart``), output writing (``write_outputs``), the result
+and its message (``solution``, ``method_status_message``); docs/integrator.md, "Step-control
+core". The helpers on scalars are ordinary compiled functions, cached on their own and shared by
+every integrator. Those that take several arrays and run every step (the stages, the event
+location, output writing) are inlined by numba (``inline='always'``): called out of line, the
+reference counting of their array arguments made a step 15 % slower (measured:
+benchmarks/bench_builds.py); inlining costs compile time once per machine.
 
 **Compiled once per machine.** The integrators take the scene's (or user's) ``rhs``, ``events``,
 ``on_event`` (and the tangent JVPs) as *first-class function* arguments of a fixed signature
@@ -40,7 +44,8 @@ from numba.core.typing.typeof import typeof_impl
 
 from nld.errors import InputError
 
-from .events import EPS, EVENT_SAMPLES, fire_events, set_unknown_signs
+from .events import (EPS, EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,
+                     set_unknown_signs)
 
 # ---------------------------------------------------------------- statuses
 SUCCESS = 0          # reached t_end
@@ -48,8 +53,12 @@ STOPPED = 1          # on_event returned 1
 MAX_STEPS = -1       # max_steps exceeded
 STEP_UNDERFLOW = -2  # step size underflow after a rejection
 NON_FINITE = -3      # non-finite values that halving the step could not cure
+SINGULAR = -5        # rodas: the iteration matrix was singular MAX_SINGULAR times in a row
+STIFF = -6           # dop853: the step size is limited by stability (Hairer's stiffness test)
 
 MAX_NONFINITE = 50   # halvings after non-finite values before NON_FINITE
+MAX_RELOCATE = 8     # event location: retakes of a step to land on a root (``relocate``)
+RUNNING = 2          # not a final status: the run goes on (``running``; never returned)
 
 # ---------------------------------------------------------------- PI step-size control (Hairer)
 BETA = 0.04
@@ -86,6 +95,55 @@ ev_t, ev_k, ev_dir   the event log: time, event index, direction (+1 up, -1 down
 n_ev     events logged
 Z        (len(t_eval), nz) discrete state in force at each output row
 """
+
+
+def method_status_message(method: str, status, t_reached, stats, *, contacts: bool = True,
+                          escape=None) -> str:
+    """One-line description of a result of any method (dopri5's wording, method-aware hints).
+
+    contacts: the system has contact (or other) events; False drops the "stiff contact" guess
+    from a step-size underflow. escape: (|y|, t) where the solution was last seen growing without
+    bound (nld.systems.core.escape_probe); given, a step-size underflow or a non-finite state is
+    reported as that escape, not as a tolerance or stiffness problem."""
+    st = [int(v) for v in stats] + [0] * max(0, 7 - len(stats))
+    t = float(t_reached)
+    status = int(status)
+    rej = "rejections not reported" if st[2] < 0 else f"{st[2]} rejected"
+    counts = f"{st[1]} steps, {rej}, {st[3]} rhs evaluations"
+    if len(stats) > 5 and (st[5] or st[6]):
+        counts += f", {st[5]} Jacobians, {st[6]} LU decompositions"
+    stiff = method in ("rodas", "scipy:Radau", "scipy:LSODA")
+    hint = "the tolerance" if stiff else "the tolerance or use the stiff solver (method='rodas')"
+    if status == SUCCESS:
+        return f"{method}: reached t_end = {t:.9g} s ({counts})"
+    if status == STOPPED:
+        return f"{method}: stopped by an event at t = {t:.9g} s ({counts}, {st[4]} events)"
+    if status == MAX_STEPS:
+        what = "rhs evaluation budget (max_steps)" if method.startswith("scipy:") else "max_steps"
+        return (f"{method}: {what} exceeded at t = {t:.9g} s after {st[0]} steps: raise max_steps, "
+                f"loosen {hint}")
+    if escape is not None and status in (STEP_UNDERFLOW, NON_FINITE):
+        norm, t_seen = escape
+        what = "step size underflow" if status == STEP_UNDERFLOW else "non-finite value (NaN/inf)"
+        return (f"{method}: {what} at t = {t:.9g} s: the solution grows without bound (|y| = "
+                f"{norm:.3g} at t = {t_seen:.9g} s; an escape to infinity or a finite-time blow-up, "
+                f"not a tolerance problem: check the model, its parameters and the initial state)")
+    if status == STEP_UNDERFLOW:
+        guess = "stiff contact or a singularity?" if contacts else "a singularity or a stiff system?"
+        return (f"{method}: step size underflow at t = {t:.9g} s: the tolerance cannot be met "
+                f"({guess} loosen {hint})")
+    if status == NON_FINITE:
+        return (f"{method}: non-finite value (NaN/inf) in the solution at t = {t:.9g} s: the state "
+                f"diverged (check parameters and initial conditions, or loosen {hint})")
+    if status == STIFF:
+        return (f"{method}: the problem became stiff at t = {t:.9g} s ({counts}): the step size is "
+                f"limited by stability, not accuracy, and an explicit method would go on with noisy, "
+                f"possibly wrong stiff components; use method='rodas' (if the cause is a jump of the "
+                f"forces instead, e.g. Coulomb friction sticking, use dopri5 or a regularized friction law)")
+    if status == SINGULAR:
+        return (f"{method}: the iteration matrix I/(h*gamma) - J was singular {5} times in a row at "
+                f"t = {t:.9g} s (check the model for a singular mass matrix or NaN Jacobian entries)")
+    return f"{method}: unknown integrator status {status} at t = {t:.9g} s"
 
 
 def as_solution(out) -> "Solution":
@@ -270,6 +328,26 @@ def new_outputs(n_eval, n, nz, max_log, n_stats):
 
 
 @njit(cache=True)
+def new_run(t0, y0, t_eval, atol, z, max_log, n_stats):
+    """The arrays of a run, after ``check_arguments``: (Y, Z, stats, ev_t, ev_k, ev_dir) of
+    ``new_outputs``, (y, ynew, ytmp, yint) of ``work_vectors`` and zsave (a copy of the discrete
+    state before the events fire)."""
+    n = y0.shape[0]
+    check_arguments(t0, t_eval, atol, n)
+    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(t_eval.shape[0], n, z.shape[0], max_log, n_stats)
+    y, ynew, ytmp, yint = work_vectors(y0)
+    return Y, Zo, stats, ev_t, ev_k, ev_dir, y, ynew, ytmp, yint, np.empty(z.shape[0])
+
+
+@njit(cache=True)
+def work_vectors(y0):
+    """(y, ynew, ytmp, yint): the state (a copy of y0), the step's end, a stage's argument and
+    the dense output's value, the work vectors of every integrator."""
+    n = y0.shape[0]
+    return y0.copy(), np.empty(n), np.empty(n), np.empty(n)
+
+
+@njit(cache=True)
 def event_workspace(ne):
     """Work arrays of the event location for ne event functions: (gcur, gnew, gtmp, gw, sgn,
     troot_a, troot, crossed): g at the step's start and end, scratch, the 4 sample rows, the
@@ -279,10 +357,19 @@ def event_workspace(ne):
 
 
 @njit(cache=False)
-def start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax, span, ytmp, ftmp, order, gcur, sgn):
-    """The start of a run: f0 = f(t0, y), the event functions' sides at t0, the step cap and the
-    first step (h0 if positive, else Hairer's HINIT for a method of this order). Returns
-    (h, hcap, rhs evaluations)."""
+def start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax, t_eval, Y, Zo, ytmp, ftmp, order,
+          gcur, sgn):
+    """The start of a run: the rows of t_eval at t0 (``initial_rows``), f0 = f(t0, y), the event
+    functions' sides at t0, the step cap and the first step (h0 if positive, else Hairer's HINIT
+    for a method of this order). Returns (i_out, t_end, h, hcap, rhs evaluations); when no
+    output lies after t0, t_end = t0 (the run ends at once with SUCCESS) and nothing is
+    evaluated."""
+    i_out = initial_rows(t0, y, z, t_eval, Y, Zo)
+    n_eval = t_eval.shape[0]
+    if i_out >= n_eval:
+        return i_out, t0, h0, h0, 0
+    t_end = t_eval[n_eval - 1]
+    span = t_end - t0
     rhs(t0, y, p, z, f0)
     nfev = 1
     if gcur.shape[0] > 0:
@@ -294,24 +381,75 @@ def start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax, span, ytmp, ftmp, 
     else:
         h = initial_step(rhs, t0, y, f0, p, z, atol, rtol, hcap, span, ytmp, ftmp, order)
         nfev += 1
-    return usable_step(h, span), hcap, nfev
+    return i_out, t_end, usable_step(h, span), hcap, nfev
+
+
+@njit(cache=False, inline='always')
+def fire(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, ev_t, ev_k, ev_dir, n_ev,
+         max_log):
+    """At a located event: fire every crossing whose root is within tol of t_star (on_event may
+    change z; ``fire_events``). Returns (stop, n_ev, new_branch): new_branch when on_event changed
+    z (a new branch of the vector field, ``rejected_shrink``)."""
+    copy_vector(z, zsave)
+    stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
+                             ev_k, ev_dir, n_ev, max_log)
+    return stop, n_ev, changed(z, zsave)
 
 
 @njit(cache=False)
 def fire_and_restart(rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave,
-                     ev_t, ev_k, ev_dir, n_ev, max_log, f0, gcur):
-    """At a located event: fire every crossing whose root is within tol of t_star (on_event may
-    change z), then restart there: f0 = f(t, y) and g with the new discrete state (FSAL is
-    invalid). Returns (stop, n_ev, new_branch): new_branch when on_event changed z (a new branch
-    of the vector field, nld.integrators.core.rejected_shrink)."""
-    save_state(z, zsave)
-    stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
-                             ev_k, ev_dir, n_ev, max_log)
-    new_branch = changed(z, zsave)
+                     ev_t, ev_k, ev_dir, n_ev, max_log, f0, gcur, nfev):
+    """``fire``, then restart there: f0 = f(t, y) (counted in nfev) and g with the new discrete
+    state (FSAL is invalid). Returns (status, n_ev, new_branch, nfev): status STOPPED when
+    on_event asked to stop (``running`` ends the run), else RUNNING."""
+    stop, n_ev, new_branch = fire(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave,
+                                  ev_t, ev_k, ev_dir, n_ev, max_log)
     rhs(t, y, p, z, f0)
     events(t, y, p, z, gcur)
     set_unknown_signs(gcur, sgn)
-    return stop, n_ev, new_branch
+    return STOPPED if stop else RUNNING, n_ev, new_branch, nfev + 1
+
+
+@njit(cache=False, inline='always')
+def scan_due(events, event_samples, t_new, ynew, p, z, gnew, sgn, crossed):
+    """g at a step's end (t_new, ynew) into gnew; whether the step is to be scanned for roots:
+    always with interior samples, else when some g left its tracked side (``find_crossings``).
+    Used on the retaken steps of an event (dop853, rodas); the per-step scan of every method
+    writes these two lines out: inlined there, the helper made a DOPRI5 step about 10 % slower
+    (the reference counts of its array arguments, benchmarks/bench_builds.py)."""
+    events(t_new, ynew, p, z, gnew)
+    return event_samples > 0 or find_crossings(gnew, sgn, crossed)
+
+
+@njit(cache=False, inline='always')
+def relocate(it, events, interp_fn, event_samples, t, dense_h, t_c, a_star, t_star, first, gcur,
+             gnew, sgn, cont, yint, gtmp, gw, p, z, tol, crossed, troot_a, troot_b):
+    """One pass of the relocation of an event (dop853, rodas: the step retaken from t to land on
+    the root, until the root is at the retaken step's end; MAX_RELOCATE passes at most). From
+    the second pass on, the earliest root is located again on the dense output of the retaken
+    step [t, t_c] (length dense_h). Returns (retake, fire, a_star, t_star, first): retake the
+    step to t_star (yint: the dense output there, the fallback of ``retake_finite``); else the
+    relocation ends, and the event fires (``fire``) or comes later (t_c is a plain step end)."""
+    if it > 0:
+        found, a_star, t_star, first = locate_earliest(
+            events, interp_fn, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint, gtmp,
+            gw, p, z, tol, crossed, troot_a, troot_b)
+        if not found:
+            return False, False, a_star, t_star, first
+    if t_star <= t or t_star >= t_c - tol:
+        return False, True, a_star, t_star, first
+    interp_fn((t_star - t) / dense_h, cont, yint)
+    return True, True, a_star, t_star, first
+
+
+@njit(cache=False, inline='always')
+def retake_finite(ynew, yint):
+    """Whether a step retaken to land on a root ends finite; if not, ynew falls back on yint
+    (the dense output of the longer step at the root)."""
+    if finite(ynew):
+        return True
+    copy_vector(yint, ynew)
+    return False
 
 
 @njit(cache=True)
@@ -360,6 +498,36 @@ def finish(stats, n_steps, n_acc, n_rej, nfev, n_ev):
     stats[2] = n_rej
     stats[3] = nfev
     stats[4] = n_ev
+
+
+@njit(cache=True)
+def solution(status, t, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,
+             nfev):
+    """``finish``, then the fields of :class:`Solution` as the tuple a jitted core returns."""
+    finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
+    return status, t, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+
+
+@njit(cache=False, inline='always')
+def rms_error(y, ynew, e, atol, rtol):
+    """The error norm of dopri5 and rodas: the RMS of e_i / (atol_i + rtol w_i max(|y_i|,
+    |ynew_i|)) (e: the method's error estimate, w_i: ``rweight``); NaN if ynew or the norm is not
+    finite (``judge`` then halves the step)."""
+    n = y.shape[0]
+    acc = 0.0
+    for i in range(n):
+        yn = ynew[i]
+        if not math.isfinite(yn):
+            return np.nan
+        sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(yn))
+        q = e[i] / sk
+        acc += q * q
+    if n == 0:
+        return 0.0
+    err = math.sqrt(acc / n)
+    if not math.isfinite(err):
+        return np.nan
+    return err
 
 
 @njit(cache=True)
@@ -427,6 +595,23 @@ def initial_step(rhs, t0, y, f0, p, z, atol, rtol, hmax, span, y1, f1, order):
 
 
 @njit(cache=True)
+def first_step(y, f0, atol, rtol, h0, hcap, span):
+    """The first step without HINIT's extra rhs evaluation (the tangent DOPRI5, the delay
+    integrator): h0 if positive, else ``first_guess`` on the state; capped at hcap, usable."""
+    if h0 > 0.0:
+        h = min(h0, hcap)
+    else:
+        h = min(first_guess(y, f0, atol, rtol)[0], hcap)
+    return usable_step(h, span)
+
+
+@njit(cache=True)
+def fixed_times(t0, h, s):
+    """(t, t_new) of step s of a fixed-step run from t0 with steps h (no accumulated sum)."""
+    return t0 + s * h, t0 + (s + 1) * h
+
+
+@njit(cache=True)
 def usable_step(h, span):
     """h, or 1e-6 of the span when h is not a positive finite number."""
     if not (h > 0.0) or not math.isfinite(h):
@@ -447,6 +632,19 @@ def next_step(t, h, hcap, target):
     else:
         t_new = t + h
     return t_new, t_new - t
+
+
+@njit(cache=True)
+def running(status, t, t_end, n_steps, max_steps):
+    """The head of every integrator's loop: the status the run ends with before its next step
+    (a failure the step control set, SUCCESS at t_end, MAX_STEPS), or RUNNING."""
+    if status != RUNNING:
+        return status
+    if t >= t_end:
+        return SUCCESS
+    if n_steps >= max_steps:
+        return MAX_STEPS
+    return RUNNING
 
 
 @njit(cache=True)
@@ -491,6 +689,45 @@ def judge(err, h, t, n_nonfinite, shrink):
 
 
 @njit(cache=True)
+def settle(err, shrink, h, t, n_nonfinite, n_rej, n_acc):
+    """``judge`` with the counters: (accepted, status, h, n_nonfinite, n_rej, n_acc). An accepted
+    step counts in n_acc (h unchanged); a rejected one in n_rej, with status RUNNING (retry with
+    the returned h) or the failure (NON_FINITE, STEP_UNDERFLOW: ``running`` ends the run)."""
+    verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite, shrink)
+    if verdict == ACCEPTED:
+        return True, RUNNING, h, n_nonfinite, n_rej, n_acc + 1
+    if verdict == RETRY:
+        return False, RUNNING, h, n_nonfinite, n_rej + 1, n_acc
+    return False, verdict, h, n_nonfinite, n_rej + 1, n_acc
+
+
+@njit(cache=True)
+def pi_start(h):
+    """The state of ``pi_control`` at the start: (hnew, facold, reject, new_branch)."""
+    return h, FACOLD0, False, False
+
+
+@njit(cache=True)
+def pi_control(err, expo1, beta, facc1, facc2, h, t, hnew, facold, n_nonfinite, reject,
+               new_branch, n_rej, n_acc):
+    """The step control of the explicit pairs (dopri5, dop853, the tangent DOPRI5, the delay
+    integrator) on a step with error estimate err: ``settle`` with the shrink of
+    ``rejected_shrink`` (fac11 = err^expo1), and on acceptance the next step by ``pi_accept``.
+
+    Returns (accepted, status, h, hnew, facold, n_nonfinite, reject, new_branch, n_rej, n_acc):
+    h the step to retry after a rejection (hnew, facold unchanged then), hnew the proposal after
+    an acceptance; reject and new_branch as they stand for the next step (both False after an
+    acceptance; new_branch kept through rejections)."""
+    fac11 = err ** expo1
+    ok, status, h, n_nonfinite, n_rej, n_acc = settle(
+        err, rejected_shrink(err, fac11, facc1, new_branch), h, t, n_nonfinite, n_rej, n_acc)
+    if ok:
+        hnew, facold = pi_accept(h, err, fac11, facold, reject, beta, facc1, facc2)
+        return ok, status, h, hnew, facold, n_nonfinite, False, False, n_rej, n_acc
+    return ok, status, h, hnew, facold, n_nonfinite, True, new_branch, n_rej, n_acc
+
+
+@njit(cache=True)
 def rejected_shrink(err, fac11, facc1, new_branch):
     """The factor h_old / h_new after a rejected step (err > 1): Hairer's min(facc1, fac11 / SAFE)
     (fac11 = err^EXPO1 of the method), and on the first step after a mode change at least
@@ -522,10 +759,20 @@ def pi_accept(h, err, fac11, facold, reject, beta, facc1, facc2):
     return pi_next_step(h, fac11, facold, reject, beta, facc1, facc2), max(err, FACOLD0)
 
 
+@njit(cache=False, inline='always')
+def finite(a):
+    """Whether every entry of the vector a is finite."""
+    for i in range(a.shape[0]):
+        if not math.isfinite(a[i]):
+            return False
+    return True
+
+
 @njit(cache=True)
-def save_state(z, zsave):
-    for i in range(z.shape[0]):
-        zsave[i] = z[i]
+def copy_vector(src, dst):
+    """dst[:] = src (a loop: numba compiles slice assignment generically, seconds cold)."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
 
 
 @njit(cache=True)

@@ -48,9 +48,10 @@ controller chattered between stick and slip on the excavator scene (10^5 events 
 arguments (nld.integrators.core) and the law as arrays, so it is compiled once per machine for
 every system and every law (a gain sweep never recompiles).
 
-Step-size control, initial step, verdict on a step: nld.integrators.core (``judge``,
-``pi_accept``, ``rejected_shrink``, ``first_guess``, ``next_step``); the initial step is HINIT's
-first guess (no extra field evaluation, as in the tangent DOPRI5). Units: t in the system's time
+Step-size control, initial step, verdict on a step, output rows, firing events:
+nld.integrators.core (``pi_control``, ``first_step``, ``next_step``, ``running``,
+``write_outputs``, ``fire``); the initial step is HINIT's first guess (no extra field
+evaluation, as in the tangent DOPRI5). Units: t in the system's time
 unit (s); everything else in the system's units.
 """
 from __future__ import annotations
@@ -63,16 +64,16 @@ import numpy as np
 from numba import njit, types
 
 from nld.errors import InputError
-from nld.integrators.core import (ACCEPTED, BETA, EVENTS_SIG, FACC1, FACC2, FACOLD0, ON_EVENT_SIG,
-                                  RETRY, RHS_SIG, Solution, changed, check_arguments, copy_row,
-                                  drop_stale_caches, event_workspace, finish, first_guess,
-                                  judge, native, new_outputs, next_step, no_events, no_on_event,
-                                  pi_accept, rejected_shrink, save_state, state_vector,
-                                  step_cap, usable_step, vector)
+from nld.integrators.core import (BETA, EVENTS_SIG, FACC1, FACC2, ON_EVENT_SIG, RHS_SIG, RUNNING,
+                                  STOPPED, Solution, drop_stale_caches, event_workspace,
+                                  finish, fire, first_step, initial_rows, native, new_run,
+                                  next_step, no_events, no_on_event, pi_control, pi_start,
+                                  retake_finite, running, state_vector, step_cap, vector,
+                                  write_outputs)
 from nld.integrators.dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62,
                                     A63, A64, A65, A71, A73, A74, A75, A76, C2, C3, C4, C5,
-                                    EXPO1, _error_norm, dense_coeffs, interp)
-from nld.integrators.events import (EPS, EVENT_SAMPLES, ROOT_RTOL, fire_events, locate_earliest,
+                                    EXPO1, _error_norm, dense_coeffs, interp, stage_vectors)
+from nld.integrators.events import (EPS, EVENT_SAMPLES, ROOT_RTOL, locate_earliest,
                                     set_unknown_signs)
 
 __all__ = ["DelayLaw", "History", "DelaySolution", "dde", "dde_core", "constant_history",
@@ -245,23 +246,29 @@ def _make_room(ht0, hh, ht1, hc, hs, count, t_keep):
                     hs[i - i0, r, j] = hs[i, r, j]
         count -= i0
     if 2 * count > cap:
-        ncap = 2 * cap
-        a0 = np.empty(ncap)
-        a1 = np.empty(ncap)
-        a2 = np.empty(ncap)
-        c = np.empty((ncap, 5, hc.shape[2]))
-        s = np.empty((ncap, 5, hs.shape[2]))
-        for i in range(count):
-            a0[i] = ht0[i]
-            a1[i] = hh[i]
-            a2[i] = ht1[i]
-            for r in range(5):
-                for j in range(hc.shape[2]):
-                    c[i, r, j] = hc[i, r, j]
-                for j in range(hs.shape[2]):
-                    s[i, r, j] = hs[i, r, j]
+        a0, a1, a2, c, s = _pieces(ht0, hh, ht1, hc, hs, 0, count, 2 * cap)
         return a0, a1, a2, c, s, count
     return ht0, hh, ht1, hc, hs, count
+
+
+@njit(cache=True)
+def _pieces(ht0, hh, ht1, hc, hs, i0, k, cap):
+    """New history arrays of capacity cap holding the k pieces of these from piece i0 on."""
+    a0 = np.empty(cap)
+    a1 = np.empty(cap)
+    a2 = np.empty(cap)
+    c = np.empty((cap, 5, hc.shape[2]))
+    s = np.empty((cap, 5, hs.shape[2]))
+    for i in range(k):
+        a0[i] = ht0[i0 + i]
+        a1[i] = hh[i0 + i]
+        a2[i] = ht1[i0 + i]
+        for r in range(5):
+            for j in range(hc.shape[2]):
+                c[i, r, j] = hc[i0 + i, r, j]
+            for j in range(hs.shape[2]):
+                s[i, r, j] = hs[i0 + i, r, j]
+    return a0, a1, a2, c, s
 
 
 @njit(cache=True)
@@ -313,28 +320,27 @@ def _next_break(t, t_b0, taus, t_end):
 
 
 @njit(cache=True)
-def _write_rows(t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z, U, S, p, pe, v, u, taus, cst, cR,
-                Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh, ht1, count):
-    """Rows for t_eval in (t, t_hi]: the state (y_hi at t_hi, else the dense output), the
-    discrete state, the channel values S and the inputs U there."""
-    n_eval = t_eval.shape[0]
-    n = y_hi.shape[0]
-    while i_out < n_eval and t_eval[i_out] <= t_hi:
-        te = t_eval[i_out]
-        if te == t_hi:
-            for j in range(n):
-                Y[i_out, j] = y_hi[j]
-        else:
-            interp((te - t) / h, cont, Y[i_out])
-        copy_row(z, Zo, i_out)
-        _inputs(te, Y[i_out], p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs,
+def _row_inputs(i0, i1, t_eval, Y, U, S, p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx,
+                hc, hs, ht0, hh, ht1, count):
+    """The channel values S and the inputs U at the output rows i0 <= i < i1 (states Y)."""
+    for i in range(i0, i1):
+        _inputs(t_eval[i], Y[i], p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs,
                 ht0, hh, ht1, count)
         for j in range(v.shape[0]):
-            S[i_out, j] = v[j]
+            S[i, j] = v[j]
         for j in range(u.shape[0]):
-            U[i_out, j] = u[j]
-        i_out += 1
-    return i_out
+            U[i, j] = u[j]
+
+
+@njit(cache=True)
+def _write_rows(t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z, U, S, p, pe, v, u, taus, cst, cR,
+                Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh, ht1, count):
+    """Rows for t_eval in (t, t_hi]: the state and the discrete state (``write_outputs``), the
+    channel values S and the inputs U there."""
+    i_new = write_outputs(interp, t, h, t_hi, y_hi, cont, t_eval, i_out, Y, Zo, z)
+    _row_inputs(i_out, i_new, t_eval, Y, U, S, p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind,
+                iidx, hc, hs, ht0, hh, ht1, count)
+    return i_new
 
 
 # ================================================================ the integrator
@@ -359,8 +365,8 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
     m = taus.shape[0]
     nu = u0.shape[0]
     ne = n_events
-    check_arguments(t0, t_eval, atol, n)
-    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(n_eval, n, z.shape[0], max_log, 5)
+    Y, Zo, stats, ev_t, ev_k, ev_dir, y, ynew, ytmp, yint, zsave = new_run(
+        t0, y0, t_eval, atol, z, max_log, 5)
     U = np.empty((n_eval, nu))
     S = np.empty((n_eval, m))
     for i in range(n_eval):
@@ -368,76 +374,33 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
             U[i, j] = np.nan
         for j in range(m):
             S[i, j] = np.nan
-    n_ev = 0
 
     # the history buffer, seeded with the given pieces
-    k_in = ht0_in.shape[0]
-    cap = max(64, 2 * k_in)
-    ht0 = np.empty(cap)
-    hh = np.empty(cap)
-    ht1 = np.empty(cap)
-    hc = np.empty((cap, 5, n))
-    hs = np.empty((cap, 5, m))
-    for i in range(k_in):
-        ht0[i] = ht0_in[i]
-        hh[i] = hh_in[i]
-        ht1[i] = ht1_in[i]
-        for r in range(5):
-            for j in range(n):
-                hc[i, r, j] = hc_in[i, r, j]
-            for j in range(m):
-                hs[i, r, j] = hs_in[i, r, j]
-    count = k_in
+    count = ht0_in.shape[0]
+    ht0, hh, ht1, hc, hs = _pieces(ht0_in, hh_in, ht1_in, hc_in, hs_in, 0, count,
+                                   max(64, 2 * count))
     tau_min = np.inf
     for j in range(m):
         tau_min = min(tau_min, taus[j])
 
-    y = np.empty(n)
-    ynew = np.empty(n)
-    ytmp = np.empty(n)
-    yint = np.empty(n)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
-    k7 = np.empty(n)
+    k1, k2, k3, k4, k5, k6, k7 = stage_vectors(n)
     cont = np.empty((5, n))
-    zsave = np.empty(z.shape[0])
-    pe = np.empty(p.shape[0])
-    pev = np.empty(p.shape[0])      # the effective parameters the events see
-    for k in range(p.shape[0]):
-        pe[k] = p[k]
-        pev[k] = p[k]
+    pe = p.copy()
+    pev = p.copy()      # the effective parameters the events see
     v = np.empty(m)
     u = np.empty(nu)
     vn = np.empty((5, m))
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
-    for i in range(n):
-        y[i] = y0[i]
     t = t0
-    i_out = 0
-    while i_out < n_eval and t_eval[i_out] <= t0:
-        for j in range(n):
-            Y[i_out, j] = y0[j]
-        copy_row(z, Zo, i_out)
-        _inputs(t0, y, p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh,
-                ht1, count)
-        for j in range(m):
-            S[i_out, j] = v[j]
-        for j in range(nu):
-            U[i_out, j] = u[j]
-        i_out += 1
-    status = 0
-    n_steps = 0
-    n_acc = 0
-    n_rej = 0
-    nfev = 0
-    h = h0
+    i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
+    _row_inputs(0, i_out, t_eval, Y, U, S, p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind,
+                iidx, hc, hs, ht0, hh, ht1, count)
+    status = RUNNING
+    n_steps = n_acc = n_rej = n_nonfinite = n_ev = nfev = 0
+    h = hcap = h0
+    t_end = t_eval[n_eval - 1] if i_out < n_eval else t0
     if i_out < n_eval:
-        t_end = t_eval[n_eval - 1]
         _field(rhs, coupling, t, y, p, pe, z, k1, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind,
                iidx, hc, hs, ht0, hh, ht1, count)
         nfev = 1
@@ -449,145 +412,98 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
         hcap = step_cap(t_end - t0, hmax)
         if m > 0 and tau_min < hcap:
             hcap = tau_min
-        if h0 > 0.0:
-            h = min(h0, hcap)
-        else:
-            h = min(first_guess(y, k1, atol, rtol)[0], hcap)
-        h = usable_step(h, t_end - t0)
-        facold = FACOLD0
-        reject = False
-        new_branch = False
-        n_nonfinite = 0
-        hnew = h
-        while True:
-            if t >= t_end:
-                status = 0
-                break
-            if n_steps >= max_steps:
-                status = -1
-                break
-            target = t_eval[i_out] if land else t_end
-            if m > 0:
-                bp = _next_break(t, t_break0, taus, t_end)
-                if bp < target:
-                    target = bp
-            t_new, h = next_step(t, h, hcap, target)
-            n_steps += 1
-            # ---------------- the DOPRI5 stages on the closed-loop field
-            _dstep(rhs, coupling, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, pe,
-                   z, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh, ht1,
-                   count)
-            nfev += 6
-            err = _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol)
-            fac11 = err ** EXPO1
-            verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
-                                            rejected_shrink(err, fac11, FACC1, new_branch))
-            if verdict != ACCEPTED:
-                n_rej += 1
-                reject = True
-                if verdict != RETRY:
-                    status = verdict
-                    break
-                continue
-            hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
-            reject = False
-            new_branch = False
-            n_acc += 1
-            dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
+        h = first_step(y, k1, atol, rtol, h0, hcap, t_end - t0)
+    hnew, facold, reject, new_branch = pi_start(h)
+    while True:
+        status = running(status, t, t_end, n_steps, max_steps)
+        if status != RUNNING:
+            break
+        target = t_eval[i_out] if land else t_end
+        if m > 0:
+            bp = _next_break(t, t_break0, taus, t_end)
+            if bp < target:
+                target = bp
+        t_new, h = next_step(t, h, hcap, target)
+        n_steps += 1
+        # ---------------- the DOPRI5 stages on the closed-loop field
+        _dstep(rhs, coupling, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, pe, z, v,
+               u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh, ht1, count)
+        nfev += 6
+        err = _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol)
+        ok, status, h, hnew, facold, n_nonfinite, reject, new_branch, n_rej, n_acc = pi_control(
+            err, EXPO1, BETA, FACC1, FACC2, h, t, hnew, facold, n_nonfinite, reject, new_branch,
+            n_rej, n_acc)
+        if not ok:
+            continue
+        dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
 
-            # ---------------- events on the dense output
-            have_event = False
-            t_star = t_new
-            tol = ROOT_RTOL * max(1.0, abs(t_new))
+        # ---------------- events on the dense output
+        have_event = False
+        t_star = t_new
+        tol = ROOT_RTOL * max(1.0, abs(t_new))
+        if ne > 0:
+            # the events see the effective parameters, frozen over the step at its end
+            _inputs(t_new, ynew, p, pev, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc,
+                    hs, ht0, hh, ht1, count)
+            events(t_new, ynew, pev, z, gnew)
+            have_event, a_star, t_star, first = locate_earliest(
+                events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp, gw,
+                pev, z, tol, crossed, troot_a, troot)
+        t_hi = t_new
+        h_d = h
+        if have_event:
+            t_hi = t_star
+            if t_star > t and t_star < t_new:
+                # retake the step to the root: a true 5th-order state there
+                interp((t_star - t) / h, cont, yint)
+                _dstep(rhs, coupling, t, t_star - t, t_star, y, k1, k2, k3, k4, k5, k6, k7, ytmp,
+                       ynew, p, pe, z, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs,
+                       ht0, hh, ht1, count)
+                nfev += 6
+                if retake_finite(ynew, yint):
+                    h_d = t_star - t
+                    dense_coeffs(h_d, y, ynew, k1, k3, k4, k5, k6, k7, cont)
+        if t_hi > t:
+            # store the piece [t, t_hi] in the history, then write the outputs in it
+            if m > 0:
+                _channel_nodes(t, t_hi, taus, cst, cR, hc, hs, ht0, hh, ht1, count, v, vn)
+            # (calls guarded: a call with this many array arguments costs ~0.5 us)
+            if count == ht0.shape[0]:
+                ht0, hh, ht1, hc, hs, count = _make_room(ht0, hh, ht1, hc, hs, count, t - keep)
+            count = _push(t, h_d, t_hi, cont, vn, ht0, hh, ht1, hc, hs, count)
+            if i_out < n_eval and t_eval[i_out] <= t_hi:
+                i_out = _write_rows(t, h_d, t_hi, ynew, cont, t_eval, i_out, Y, Zo, z, U, S, p,
+                                    pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs,
+                                    ht0, hh, ht1, count)
+            t = t_hi
+            y, ynew = ynew, y
+        if not have_event:
+            k1, k7 = k7, k1          # FSAL
             if ne > 0:
-                # the events see the effective parameters, frozen over the step at its end
-                _inputs(t_new, ynew, p, pev, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx,
-                        hc, hs, ht0, hh, ht1, count)
-                events(t_new, ynew, pev, z, gnew)
-                have_event, a_star, t_star, first = locate_earliest(
-                    events, interp, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint,
-                    gtmp, gw, pev, z, tol, crossed, troot_a, troot)
-            t_hi = t_new
-            h_d = h
-            if have_event:
-                t_hi = t_star
-                if t_star > t and t_star < t_new:
-                    # retake the step to the root: a true 5th-order state there
-                    interp((t_star - t) / h, cont, yint)
-                    h_s = t_star - t
-                    _dstep(rhs, coupling, t, h_s, t_star, y, k1, k2, k3, k4, k5, k6, k7, ytmp,
-                           ynew, p, pe, z, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc,
-                           hs, ht0, hh, ht1, count)
-                    nfev += 6
-                    ok = True
-                    for j in range(n):
-                        if not math.isfinite(ynew[j]):
-                            ok = False
-                            break
-                    if ok:
-                        h_d = h_s
-                        dense_coeffs(h_s, y, ynew, k1, k3, k4, k5, k6, k7, cont)
-                    else:
-                        for j in range(n):
-                            ynew[j] = yint[j]
-            if t_hi > t:
-                # store the piece [t, t_hi] in the history, then write the outputs in it
-                if m > 0:
-                    _channel_nodes(t, t_hi, taus, cst, cR, hc, hs, ht0, hh, ht1, count, v, vn)
-                # (calls guarded: a call with this many array arguments costs ~0.5 us)
-                if count == ht0.shape[0]:
-                    ht0, hh, ht1, hc, hs, count = _make_room(ht0, hh, ht1, hc, hs, count,
-                                                             t - keep)
-                count = _push(t, h_d, t_hi, cont, vn, ht0, hh, ht1, hc, hs, count)
-                if i_out < n_eval and t_eval[i_out] <= t_hi:
-                    i_out = _write_rows(t, h_d, t_hi, ynew, cont, t_eval, i_out, Y, Zo, z, U, S,
-                                        p, pe, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx,
-                                        hc, hs, ht0, hh, ht1, count)
-                t = t_hi
-                y, ynew = ynew, y
-            if not have_event:
-                k1, k7 = k7, k1          # FSAL
-                if ne > 0:
-                    gcur, gnew = gnew, gcur
-                    set_unknown_signs(gcur, sgn)
-                h = hnew
-                continue
-            # ---------------- fire the events at t_star, restart with the new z
-            save_state(z, zsave)
-            _inputs(t, y, p, pev, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0,
-                    hh, ht1, count)
-            stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, pev, z,
-                                     ev_t, ev_k, ev_dir, n_ev, max_log)
-            new_branch = changed(z, zsave)
-            _field(rhs, coupling, t, y, p, pe, z, k1, v, u, taus, cst, cR, Gd, Gy, u0, umax,
-                   ikind, iidx, hc, hs, ht0, hh, ht1, count)
-            events(t, y, pev, z, gcur)
-            set_unknown_signs(gcur, sgn)
-            nfev += 1
-            if stop:
-                status = 1
-                break
+                gcur, gnew = gnew, gcur
+                set_unknown_signs(gcur, sgn)
             h = hnew
+            continue
+        # ---------------- fire the events at t_star, restart with the new z
+        _inputs(t, y, p, pev, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh,
+                ht1, count)
+        stop, n_ev, new_branch = fire(on_event, crossed, troot, t_star, tol, sgn, t, y, pev, z,
+                                      zsave, ev_t, ev_k, ev_dir, n_ev, max_log)
+        _field(rhs, coupling, t, y, p, pe, z, k1, v, u, taus, cst, cR, Gd, Gy, u0, umax, ikind,
+               iidx, hc, hs, ht0, hh, ht1, count)
+        events(t, y, pev, z, gcur)
+        set_unknown_signs(gcur, sgn)
+        nfev += 1
+        if stop:
+            status = STOPPED
+            break
+        h = hnew
     finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
     # the history kept: pieces ending at or after t - keep
     i0 = 0
     while i0 < count - 1 and ht1[i0] < t - keep:
         i0 += 1
-    k_out = count - i0
-    o0 = np.empty(k_out)
-    o1 = np.empty(k_out)
-    o2 = np.empty(k_out)
-    oc = np.empty((k_out, 5, n))
-    os_ = np.empty((k_out, 5, m))
-    for i in range(k_out):
-        o0[i] = ht0[i0 + i]
-        o1[i] = hh[i0 + i]
-        o2[i] = ht1[i0 + i]
-        for r in range(5):
-            for j in range(n):
-                oc[i, r, j] = hc[i0 + i, r, j]
-            for j in range(m):
-                os_[i, r, j] = hs[i0 + i, r, j]
+    o0, o1, o2, oc, os_ = _pieces(ht0, hh, ht1, hc, hs, i0, count - i0, count - i0)
     return (status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, U, S, o0, o1, o2, oc, os_,
             h)
 

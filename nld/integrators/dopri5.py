@@ -29,10 +29,11 @@ from numba import njit
 
 # the statuses and controller constants are re-exported here for older imports
 from .core import (ACCEPTED, BETA, EPS, EXPO_EVENT, FACC1, FACC1_EVENT, FACC2,  # noqa: F401
-                   FACMAX, FACMIN, FACOLD0, MAX_NONFINITE, MAX_STEPS, NON_FINITE, RETRY, SAFE,
-                   STEP_UNDERFLOW, STOPPED, SUCCESS, check_arguments, event_workspace, finish,
-                   fire_and_restart, front, initial_rows, new_outputs, next_step, no_events,
-                   no_on_event, pi_accept, rejected_shrink, rweight, start, judge, write_outputs)
+                   FACMAX, FACMIN, FACOLD0, MAX_NONFINITE, MAX_STEPS, NON_FINITE, RETRY, RUNNING,
+                   SAFE, STEP_UNDERFLOW, STOPPED, SUCCESS, event_workspace, fire_and_restart,
+                   fixed_times, front, judge, method_status_message, new_run, next_step,
+                   no_events, no_on_event, pi_accept, pi_start, rejected_shrink, retake_finite,
+                   rweight, solution, start, work_vectors, write_outputs)
 from .events import (EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
                      fire_events, locate_earliest, set_unknown_signs)
 
@@ -110,8 +111,18 @@ def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
 
 
 @njit(cache=True)
+def stage_vectors(n):
+    """k1..k7, the stage derivatives of a step (7 vectors of n)."""
+    return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+            np.empty(n))
+
+
+@njit(cache=True)
 def _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol):
-    """RMS of err_i / (atol_i + rtol*max(|y_i|, |ynew_i|)); NaN if anything is non-finite."""
+    """RMS of err_i / (atol_i + rtol*max(|y_i|, |ynew_i|)); NaN if anything is non-finite.
+
+    The norm of ``nld.integrators.core.rms_error`` with the estimate formed inline: the shared
+    norm of a stored estimate made a DOPRI5 step 1-3 % slower (docs/performance.md)."""
     n = y.shape[0]
     acc = 0.0
     for i in range(n):
@@ -176,52 +187,27 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
     ne = n_events
-    check_arguments(t0, t_eval, atol, n)
-    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(n_eval, n, z.shape[0], max_log, 5)
-    n_ev = 0
+    Y, Zo, stats, ev_t, ev_k, ev_dir, y, ynew, ytmp, yint, zsave = new_run(
+        t0, y0, t_eval, atol, z, max_log, 5)
 
     # work arrays, allocated once
-    y = np.empty(n)
-    ynew = np.empty(n)
-    ytmp = np.empty(n)
-    yint = np.empty(n)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
-    k7 = np.empty(n)
+    k1, k2, k3, k4, k5, k6, k7 = stage_vectors(n)
     cont = np.empty((5, n))                 # dense output of the last step
-    zsave = np.empty(z.shape[0])
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
-    for i in range(n):
-        y[i] = y0[i]
     t = t0
-    i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
-    if i_out >= n_eval:
-        return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
-    t_end = t_eval[n_eval - 1]
-
-    n_steps = 0
-    n_acc = 0
-    n_rej = 0
-    h, hcap, nfev = start(rhs, events, t0, y, k1, p, z, atol, rtol, h0, hmax, t_end - t0, ytmp,
-                          k2, 5.0, gcur, sgn)
-
-    facold = FACOLD0
-    reject = False
-    new_branch = False
-    n_nonfinite = 0
-    status = 0
+    i_out, t_end, h, hcap, nfev = start(rhs, events, t0, y, k1, p, z, atol, rtol, h0, hmax,
+                                        t_eval, Y, Zo, ytmp, k2, 5.0, gcur, sgn)
+    n_steps = n_acc = n_rej = n_nonfinite = n_ev = 0
+    status = RUNNING
+    hnew, facold, reject, new_branch = pi_start(h)
 
     while True:
         if t >= t_end:
-            status = 0
+            status = SUCCESS
             break
         if n_steps >= max_steps:
-            status = -1
+            status = MAX_STEPS
             break
         t_new, h = next_step(t, h, hcap, t_eval[i_out] if land else t_end)
         n_steps += 1
@@ -229,7 +215,6 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
         _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z)
         nfev += 6
         err = _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol)
-
         fac11 = err ** EXPO1
         verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
                                         rejected_shrink(err, fac11, FACC1, new_branch))
@@ -240,8 +225,6 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
                 status = verdict
                 break
             continue
-
-        # accepted: PI (Lund-stabilized) proposal for the next step
         hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
         reject = False
         new_branch = False
@@ -277,44 +260,31 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
             continue
 
         # ------------------------------------------------ at the earliest root t_star
+        h_d = h
         if t_star > t:
             if t_star < t_new:
                 # retake the step so the state at t_star is a true 5th-order solution
                 interp((t_star - t) / h, cont, yint)
-                h_s = t_star - t
-                _stages(rhs, t, h_s, t_star, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z)
+                _stages(rhs, t, t_star - t, t_star, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p,
+                        z)
                 nfev += 6
-                ok = True
-                for j in range(n):
-                    if not math.isfinite(ynew[j]):
-                        ok = False
-                        break
-                if ok:
-                    h_d = h_s
+                if retake_finite(ynew, yint):
+                    h_d = t_star - t
                     dense_coeffs(h_d, y, ynew, k1, k3, k4, k5, k6, k7, cont)
-                else:
-                    # fall back on the (finite) interpolant of the original step
-                    h_d = h
-                    for j in range(n):
-                        ynew[j] = yint[j]
-            else:
-                h_d = h
             i_out = write_outputs(interp_fn, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
             t = t_star
             y, ynew = ynew, y
 
         # fire every crossing whose root is within tol of t_star; restart with k1 and g there
-        stop, n_ev, new_branch = fire_and_restart(
+        status, n_ev, new_branch, nfev = fire_and_restart(
             rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, ev_t, ev_k,
-            ev_dir, n_ev, max_log, k1, gcur)
-        nfev += 1
-        if stop:
-            status = 1
+            ev_dir, n_ev, max_log, k1, gcur, nfev)
+        if status != RUNNING:
             break
         h = hnew
 
-    finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
-    return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+    return solution(status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,
+                    nfev)
 
 
 dopri5 = front(dopri5_core, interp)
@@ -323,21 +293,11 @@ dopri5 = front(dopri5_core, interp)
 @njit(cache=False)
 def dopri5_fixed(rhs, t0, y0, h, n_steps, p, z):
     """n_steps fixed DOPRI5 steps of size h (5th-order solution, no control, no events)."""
-    n = y0.shape[0]
-    y = y0.copy()
-    ynew = np.empty(n)
-    ytmp = np.empty(n)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
-    k7 = np.empty(n)
+    y, ynew, ytmp, _ = work_vectors(y0)
+    k1, k2, k3, k4, k5, k6, k7 = stage_vectors(y0.shape[0])
     rhs(t0, y, p, z, k1)
     for s in range(n_steps):
-        t = t0 + s * h
-        t_new = t0 + (s + 1) * h
+        t, t_new = fixed_times(t0, h, s)
         _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z)
         y, ynew = ynew, y
         k1, k7 = k7, k1
@@ -345,22 +305,6 @@ def dopri5_fixed(rhs, t0, y0, h, n_steps, p, z):
 
 
 def status_message(status, t_reached, stats):
-    """One-line human description of a dopri5 result."""
-    st = [int(v) for v in stats] + [0] * max(0, 5 - len(stats))
-    counts = f"{st[1]} steps, {st[2]} rejected, {st[3]} rhs evaluations"
-    t = float(t_reached)
-    status = int(status)
-    if status == SUCCESS:
-        return f"reached t_end = {t:.9g} s ({counts})"
-    if status == STOPPED:
-        return f"stopped by an event at t = {t:.9g} s ({counts}, {st[4]} events)"
-    if status == MAX_STEPS:
-        return (f"max_steps exceeded at t = {t:.9g} s after {st[0]} steps: raise max_steps, "
-                f"loosen the tolerance or use the stiff solver")
-    if status == STEP_UNDERFLOW:
-        return (f"step size underflow at t = {t:.9g} s: the tolerance cannot be met "
-                f"(stiff contact or a singularity? try a looser rtol/atol or the stiff solver)")
-    if status == NON_FINITE:
-        return (f"non-finite value (NaN/inf) in the solution at t = {t:.9g} s: the state "
-                f"diverged (check parameters and initial conditions, or use the stiff solver)")
-    return f"unknown integrator status {status} at t = {t:.9g} s"
+    """One-line human description of a dopri5 result (``method_status_message`` without the
+    method's name)."""
+    return method_status_message("dopri5", status, t_reached, stats).removeprefix("dopri5: ")

@@ -205,6 +205,17 @@ def locate_earliest(events, interp, n_samples, t, h, t_new, gcur, gnew, sgn, con
     return True, a_star, t_star, first
 
 
+@njit(cache=True)
+def log_event(ev_t, ev_k, ev_dir, n_ev, max_log, t, k, direction):
+    """Entry n_ev of the event log (time, event index, direction), written while the log has room
+    (max_log entries); returns n_ev + 1 (events are counted beyond the log)."""
+    if n_ev < max_log:
+        ev_t[n_ev] = t
+        ev_k[n_ev] = k
+        ev_dir[n_ev] = direction
+    return n_ev + 1
+
+
 @njit(cache=False, inline='always')
 def fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t, ev_k, ev_dir,
                 n_ev, max_log):
@@ -214,11 +225,7 @@ def fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t, ev
     for k in range(crossed.shape[0]):
         if crossed[k] and troot[k] <= t_star + tol:
             direction = -sgn[k]
-            if n_ev < max_log:
-                ev_t[n_ev] = t
-                ev_k[n_ev] = k
-                ev_dir[n_ev] = direction
-            n_ev += 1
+            n_ev = log_event(ev_t, ev_k, ev_dir, n_ev, max_log, t, k, direction)
             sgn[k] = direction
             if on_event(k, direction, t, y, p, z) == 1:
                 stop = True

@@ -34,14 +34,15 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (event_workspace, start, ACCEPTED, RETRY, judge, EPS, check_arguments, finish,
-                   front, initial_rows, new_outputs, next_step, no_events, rweight, write_outputs)
-from .events import EVENT_SAMPLES, find_crossings, fire_events, locate_earliest, set_unknown_signs
-from .dopri5 import ROOT_RTOL
+from .core import (EPS, MAX_RELOCATE, NON_FINITE, RUNNING, SINGULAR, STOPPED, copy_vector,
+                   event_workspace, finite, fixed_times, front, new_run, next_step,
+                   no_events, relocate, rms_error, running, scan_due, settle, solution, start,
+                   work_vectors, write_outputs)
+from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
+                     set_unknown_signs)
+from .dopri5 import ROOT_RTOL  # noqa: F401
 
-SINGULAR = -5          # iteration matrix repeatedly singular
 MAX_SINGULAR = 5
-MAX_RELOCATE = 8       # event location: retakes of a step to land on a root
 SQRT_EPS = math.sqrt(EPS)
 
 # ---------------------------------------------------------------- Rodas4 (rodas.f, ROCOE METH=1)
@@ -263,6 +264,14 @@ def fd_jacobian(rhs, events, t, y, f0, p, z, typ, hscale, J, fx, ytmp, fp, fm, c
 
 
 @njit(cache=True)
+def _work(n):
+    """(f0, fx, dy, AK, J, E, piv): f(t, y), df/dt, a stage's derivative, the stage increments,
+    the Jacobian, the iteration matrix and its pivots."""
+    return (np.empty(n), np.empty(n), np.empty(n), np.empty((6, n)), np.empty((n, n)),
+            np.empty((n, n)), np.zeros(n, dtype=np.int64))
+
+
+@njit(cache=True)
 def _build_matrix(J, fac, E):
     """E = fac*I - J."""
     n = J.shape[0]
@@ -344,22 +353,8 @@ def _stages(rhs, t, h, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z):
 
 @njit(cache=True)
 def _error_norm(y, ynew, ak6, atol, rtol):
-    """RMS of ak6_i / (atol_i + rtol*max(|y_i|, |ynew_i|)); NaN if anything is non-finite."""
-    n = y.shape[0]
-    acc = 0.0
-    for i in range(n):
-        yn = ynew[i]
-        if not math.isfinite(yn):
-            return np.nan
-        sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(yn))
-        q = ak6[i] / sk
-        acc += q * q
-    if n == 0:
-        return 0.0
-    err = math.sqrt(acc / n)
-    if not math.isfinite(err):
-        return np.nan
-    return err
+    """The error norm (``rms_error``) of the estimate ak6 (the last stage increment)."""
+    return rms_error(y, ynew, ak6, atol, rtol)
 
 
 @njit(cache=True)
@@ -400,59 +395,34 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
     n = y0.shape[0]
     n_eval = t_eval.shape[0]
     ne = n_events
-    check_arguments(t0, t_eval, atol, n)
-    Y, Zo, stats, ev_t, ev_k, ev_dir = new_outputs(n_eval, n, z.shape[0], max_log, 7)
-    n_ev = 0
+    Y, Zo, stats, ev_t, ev_k, ev_dir, y, ynew, ytmp, yint, _ = new_run(
+        t0, y0, t_eval, atol, z, max_log, 7)
 
-    y = np.empty(n)
-    ynew = np.empty(n)
-    ytmp = np.empty(n)
-    yint = np.empty(n)
-    f0 = np.empty(n)
-    fx = np.empty(n)
-    dy = np.empty(n)
-    AK = np.empty((6, n))
-    J = np.empty((n, n))
-    E = np.empty((n, n))
-    piv = np.zeros(n, dtype=np.int64)
+    f0, fx, dy, AK, J, E, piv = _work(n)
     cont = np.empty((4, n))
     typ = np.empty(n)
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
     for i in range(n):
-        y[i] = y0[i]
         typ[i] = atol[i] / rtol
     t = t0
-    i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
-    if i_out >= n_eval:
-        return 0, t0, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
-    t_end = t_eval[n_eval - 1]
-
-    n_steps = 0
-    n_acc = 0
-    n_rej = 0
-    nfev = 0
+    i_out, t_end, h, hcap, nfev = start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax,
+                                        t_eval, Y, Zo, ytmp, dy, 4.0, gcur, sgn)
+    n_steps = n_acc = n_rej = n_nonfinite = n_ev = 0
+    status = RUNNING
     njac = 0
     nlu = 0
-
-    h, hcap, nfev = start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax, t_end - t0, ytmp,
-                          dy, 4.0, gcur, sgn)
-
+    hnew = h
     reject = False
     need_f0 = False      # f0 = f(t, y) is current
     need_jac = True
-    n_nonfinite = 0
     n_sing = 0
     hacc = 0.0
     erracc = 1.0
-    status = 0
 
     while True:
-        if t >= t_end:
-            status = 0
-            break
-        if n_steps >= max_steps:
-            status = -1
+        status = running(status, t, t_end, n_steps, max_steps)
+        if status != RUNNING:
             break
         t_new, h = next_step(t, h, hcap, t_eval[i_out] if land else t_end)
 
@@ -472,7 +442,7 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
                     ok = False
             if not ok:
                 # non-finite derivatives at an accepted point: a smaller step cannot help
-                status = -3
+                status = NON_FINITE
                 break
 
         n_steps += 1
@@ -484,7 +454,7 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
             reject = True
             h = 0.5 * h
             if n_sing >= MAX_SINGULAR:
-                status = -5
+                status = SINGULAR
                 break
             continue
         n_sing = 0
@@ -492,20 +462,15 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
         _stages(rhs, t, h, t_new, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
         nfev += 5
         err = _error_norm(y, ynew, AK[5], atol, rtol)
-
         fac = max(FAC2, min(FAC1, err ** 0.25 / SAFE))
-        verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite, fac)
-        if verdict != ACCEPTED:
-            n_rej += 1
+        ok, status, h, n_nonfinite, n_rej, n_acc = settle(err, fac, h, t, n_nonfinite, n_rej,
+                                                          n_acc)
+        if not ok:
             reject = True
-            if verdict != RETRY:
-                status = verdict
-                break
             continue
-        hnew = h / fac
 
         # accepted; Gustafsson's predictive controller
-        n_acc += 1
+        hnew = h / fac
         if n_acc > 1:
             facgus = (hacc / h) * (err * err / erracc) ** 0.25 / SAFE
             facgus = max(FAC2, min(FAC1, facgus))
@@ -524,14 +489,16 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
         dense_done = False
         tol = ROOT_RTOL * max(1.0, abs(t_new))
         t_star = t_new
+        a_star = t_new
+        first = -1
         if ne > 0:
             events(t_new, ynew, p, z, gnew)
             if event_samples > 0 or find_crossings(gnew, sgn, crossed):
                 _dense(y, ynew, AK, cont)
                 dense_done = True
                 have_event, a_star, t_star, first = locate_earliest(
-                    events, interp_fn, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint, gtmp,
-                    gw, p, z, tol, crossed, troot_a, troot)
+                    events, interp_fn, event_samples, t, h, t_new, gcur, gnew, sgn, cont, yint,
+                    gtmp, gw, p, z, tol, crossed, troot_a, troot)
 
         if not have_event:
             if i_out < n_eval and t_eval[i_out] <= t_new:
@@ -553,39 +520,28 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
         dense_h = h             # cont is the dense output of [t, t + dense_h]
         fire = True
         for it in range(MAX_RELOCATE):
-            if it > 0:
-                found, a_star, t_star, first = locate_earliest(
-                    events, interp_fn, event_samples, t, dense_h, t_c, gcur, gnew, sgn, cont, yint,
-                    gtmp, gw, p, z, tol, crossed, troot_a, troot)
-                if not found:
-                    fire = False     # the event comes later: t_c is a plain step end
-                    break
-            if t_star <= t or t_star >= t_c - tol:
+            retake, fire, a_star, t_star, first = relocate(
+                it, events, interp_fn, event_samples, t, dense_h, t_c, a_star, t_star, first, gcur,
+                gnew, sgn, cont, yint, gtmp, gw, p, z, tol, crossed, troot_a, troot)
+            if not retake:
                 break
-            interp((t_star - t) / dense_h, cont, yint)
             h_s = t_star - t
-            ok = False
             _build_matrix(J, 1.0 / (h_s * GAMMA), E)
             nlu += 1
-            if lu_factor(E, piv):
+            ok = lu_factor(E, piv)
+            if ok:
                 _stages(rhs, t, h_s, t_star, y, f0, fx, E, piv, AK, ytmp, ynew, dy, p, z)
                 nfev += 5
-                ok = True
-                for j in range(n):
-                    if not math.isfinite(ynew[j]):
-                        ok = False
-                        break
+                ok = finite(ynew)
             t_c = t_star
-            if not ok:
-                for j in range(n):   # fall back on the interpolant of the longer step
-                    ynew[j] = yint[j]
+            if not ok:          # fall back on the interpolant of the longer step
+                copy_vector(yint, ynew)
                 break
             _dense(y, ynew, AK, cont)
             dense_h = h_s
-            events(t_c, ynew, p, z, gnew)
-            if event_samples == 0 and not find_crossings(gnew, sgn, crossed):
-                fire = False         # the event comes later: t_c is a plain step end
-                break
+            fire = scan_due(events, event_samples, t_c, ynew, p, z, gnew, sgn, crossed)
+            if not fire:
+                break           # the event comes later: t_c is a plain step end
 
         if t_star > t:
             i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
@@ -598,19 +554,20 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
             h = hnew
             continue
 
+        # fire; restart with g there (f0 and the Jacobian at the next step)
         stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
                                  ev_k, ev_dir, n_ev, max_log)
         events(t, y, p, z, gcur)
         set_unknown_signs(gcur, sgn)
         if stop:
-            status = 1
+            status = STOPPED
             break
         h = hnew
 
-    finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
     stats[5] = njac
     stats[6] = nlu
-    return status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo
+    return solution(status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,
+                    nfev)
 
 
 rodas = front(rodas_core, interp)
@@ -620,22 +577,11 @@ rodas = front(rodas_core, interp)
 def rodas_fixed(rhs, t0, y0, h, n_steps, p, z, typ):
     """n_steps fixed Rodas4 steps of size h (4th-order solution, finite-difference Jacobian at
     every step, no control, no events). typ: the state scales of the Jacobian increments."""
-    n = y0.shape[0]
-    y = y0.copy()
-    ynew = np.empty(n)
-    ytmp = np.empty(n)
-    f0 = np.empty(n)
-    fx = np.empty(n)
-    dy = np.empty(n)
-    AK = np.empty((6, n))
-    J = np.empty((n, n))
-    E = np.empty((n, n))
-    piv = np.zeros(n, dtype=np.int64)
+    y, ynew, ytmp, fx2 = work_vectors(y0)
+    f0, fx, dy, AK, J, E, piv = _work(y0.shape[0])
     gnone = np.zeros(0)
-    fx2 = np.empty(n)
     for s in range(n_steps):
-        t = t0 + s * h
-        t_new = t0 + (s + 1) * h
+        t, t_new = fixed_times(t0, h, s)
         hs = t_new - t
         rhs(t, y, p, z, f0)
         fd_jacobian(rhs, no_events, t, y, f0, p, z, typ, hs, J, fx, ytmp, dy, ynew, fx2, gnone,

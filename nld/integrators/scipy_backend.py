@@ -25,6 +25,7 @@ import numpy as np
 
 from .core import Solution
 from .dopri5 import MAX_STEPS, NON_FINITE, STEP_UNDERFLOW
+from .events import log_event
 
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
 MAX_EMPTY_SEGMENTS = 100      # consecutive zero-length segments before giving up (event chatter)
@@ -172,11 +173,7 @@ def solve_scipy(kernel, y0, z0, t_eval, p, method, rtol, atol, *, t0=None, hmax=
         for k in range(ne):
             if len(sol.t_events[k]):
                 direction = int(-sgn[k]) if sgn[k] != 0 else 1
-                if n_ev < max_log:
-                    ev_t[n_ev] = t
-                    ev_k[n_ev] = k
-                    ev_dir[n_ev] = direction
-                n_ev += 1
+                n_ev = log_event(ev_t, ev_k, ev_dir, n_ev, max_log, float(t), k, direction)
                 sgn[k] = direction
                 if mod.on_event(k, direction, t, y, p, z) == 1:
                     stop = True

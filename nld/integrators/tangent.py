@@ -41,15 +41,15 @@ import math
 import numpy as np
 from numba import njit
 
-from .core import (event_workspace, ACCEPTED, RETRY, judge, BETA, FACC1, FACC2, FACOLD0, changed, finish,
-                   first_guess, next_step, pi_accept, rejected_shrink, rweight, save_state,
-                   step_cap, usable_step)
+from .core import (BETA, FACC1, FACC2, NON_FINITE, RUNNING, STOPPED, changed, copy_vector,
+                   event_workspace, finish, finite, first_step, next_step, pi_control,
+                   pi_start, running, rweight, step_cap, work_vectors)
 from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
                      A71, A73, A74, A75, A76, C2, C3, C4, C5, E1, E3, E4, E5, E6, E7, EXPO1,
-                     ROOT_RTOL, dense_coeffs, interp)
+                     dense_coeffs, interp)
 from .core import (EVENTS_SIG, INTERP_SIG, JVP_SIG, ON_EVENT_JVP_SIG, ON_EVENT_SIG, RHS_SIG, native,
                    no_events, no_on_event, state_vector, vector)
-from .events import EVENT_SAMPLES, locate_earliest, set_unknown_signs
+from .events import EVENT_SAMPLES, ROOT_RTOL, locate_earliest, set_unknown_signs
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
 # diag entries
@@ -233,10 +233,7 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
     n_marks = marks.shape[0]
     stats = np.zeros(5, dtype=np.int64)
 
-    y = y0.copy()
-    ynew = np.empty(n)
-    ytmp = np.empty(n)
-    yint = np.empty(n)
+    y, ynew, ytmp, yint = work_vectors(y0)
     ya = np.empty(n)
     yb = np.empty(n)
     KY = np.empty((7, n))
@@ -261,31 +258,18 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
     if n_marks == 0:
         return 0, t, y, 0, stats, h0
     t_end = marks[n_marks - 1]
-    n_steps = 0
-    n_acc = 0
-    n_rej = 0
-    nfev = 0
+    n_steps = n_acc = n_rej = n_nonfinite = 0
+    status = RUNNING
 
     tr1 = _stage_eval(rhs, rhs_jvp, t, y, p, z, W, Wz, KW, 0, KY, wtmp, want_div, trace_tmp, unit)
-    nfev += 1
+    nfev = 1
     if ne > 0:
         events(t, y, p, z, gcur)
         set_unknown_signs(gcur, sgn)
 
-    span = t_end - t0
-    hcap = step_cap(span, hmax)
-    if h0 > 0.0:
-        h = min(h0, hcap)
-    else:
-        h = min(first_guess(y, KY[0], atol, rtol)[0], hcap)   # Hairer's first guess on the state
-    h = usable_step(h, span)
-
-    facold = FACOLD0
-    reject = False
-    new_branch = False
-    n_nonfinite = 0
-    status = 0
-    hnew = h
+    hcap = step_cap(t_end - t0, hmax)
+    h = first_step(y, KY[0], atol, rtol, h0, hcap, t_end - t0)
+    hnew, facold, reject, new_branch = pi_start(h)
     trs = np.zeros(7)
     retake = False           # the next pass recomputes the step [t, t_star] after an event
     t_star = t
@@ -294,11 +278,8 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
     tol = 0.0
     while True:
         if not retake:
-            if t >= t_end:
-                status = 0
-                break
-            if n_steps >= max_steps:
-                status = -1
+            status = running(status, t, t_end, n_steps, max_steps)
+            if status != RUNNING:
                 break
             t_new, h = next_step(t, h, hcap, marks[i_mark])
             n_steps += 1
@@ -331,20 +312,16 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
         nfev += 6
 
         if retake:
-            ok = True
-            for i in range(n):
-                if not math.isfinite(ynew[i]):
-                    ok = False
-            if not ok:
-                status = -3
+            if not finite(ynew):
+                status = NON_FINITE
                 break
         else:
             # ------------------------------------------ error
             acc = 0.0
-            finite = True
+            values_finite = True
             for i in range(n):
                 if not math.isfinite(ynew[i]):
-                    finite = False
+                    values_finite = False
                 e = 0.0
                 for j in range(7):
                     e += ETAB[j] * KY[j, i]
@@ -357,7 +334,7 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                 acc = 0.0
                 for i in range(n):
                     if not math.isfinite(Wnew[c, i]):
-                        finite = False
+                        values_finite = False
                     if tangent_err:
                         e = 0.0
                         for j in range(7):
@@ -371,22 +348,13 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                     ec = math.sqrt(acc / n)
                     if ec > err:
                         err = ec
-            if not finite:
+            if not values_finite:
                 err = np.nan
-            fac11 = err ** EXPO1
-            verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
-                                            rejected_shrink(err, fac11, FACC1, new_branch))
-            if verdict != ACCEPTED:
-                n_rej += 1
-                reject = True
-                if verdict != RETRY:
-                    status = verdict
-                    break
+            ok, status, h, hnew, facold, n_nonfinite, reject, new_branch, n_rej, n_acc = \
+                pi_control(err, EXPO1, BETA, FACC1, FACC2, h, t, hnew, facold, n_nonfinite,
+                           reject, new_branch, n_rej, n_acc)
+            if not ok:
                 continue
-            hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
-            reject = False
-            new_branch = False
-            n_acc += 1
 
             # ------------------------------------------ events: scan the step, earliest root
             have_event = False
@@ -451,7 +419,7 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                     W[c, i] = Wnew[c, i]
 
         # ---------------------------------------------- fire the events, saltation
-        save_state(z, zold)
+        copy_vector(z, zold)
         stop = False
         n_fired = 0
         for q in range(ne):
@@ -497,7 +465,7 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
                                   trace_tmp, unit)
             i_mark += 1
         if stop:
-            status = 1
+            status = STOPPED
             break
         h = hnew
 
