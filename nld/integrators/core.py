@@ -14,7 +14,11 @@ core". The helpers on scalars are ordinary compiled functions, cached on their o
 every integrator. Those that take several arrays and run every step (the stages, the event
 location, output writing) are inlined by numba (``inline='always'``): called out of line, the
 reference counting of their array arguments made a step 15 % slower (measured:
-benchmarks/bench_builds.py); inlining costs compile time once per machine.
+benchmarks/bench_builds.py); inlining costs compile time once per machine. The small ones that
+run once per run (``new_run``, ``work_vectors``, ``solution``, ``pi_start``) are inlined too, so
+that they add no compilation of their own. A new per-step helper must be measured: inlined, one
+taking arrays (a swap of two arrays, the end-of-step event check) made a DOPRI5 step 10 % slower
+(docs/performance.md, "One step-control core").
 
 **Compiled once per machine.** The integrators take the scene's (or user's) ``rhs``, ``events``,
 ``on_event`` (and the tangent JVPs) as *first-class function* arguments of a fixed signature
@@ -327,7 +331,7 @@ def new_outputs(n_eval, n, nz, max_log, n_stats):
     return Y, Zo, stats, ev_t, ev_k, ev_dir
 
 
-@njit(cache=True)
+@njit(cache=False, inline='always')
 def new_run(t0, y0, t_eval, atol, z, max_log, n_stats):
     """The arrays of a run, after ``check_arguments``: (Y, Z, stats, ev_t, ev_k, ev_dir) of
     ``new_outputs``, (y, ynew, ytmp, yint) of ``work_vectors`` and zsave (a copy of the discrete
@@ -339,7 +343,7 @@ def new_run(t0, y0, t_eval, atol, z, max_log, n_stats):
     return Y, Zo, stats, ev_t, ev_k, ev_dir, y, ynew, ytmp, yint, np.empty(z.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=False, inline='always')
 def work_vectors(y0):
     """(y, ynew, ytmp, yint): the state (a copy of y0), the step's end, a stage's argument and
     the dense output's value, the work vectors of every integrator."""
@@ -500,7 +504,7 @@ def finish(stats, n_steps, n_acc, n_rej, nfev, n_ev):
     stats[4] = n_ev
 
 
-@njit(cache=True)
+@njit(cache=False, inline='always')
 def solution(status, t, Y, n_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,
              nfev):
     """``finish``, then the fields of :class:`Solution` as the tuple a jitted core returns."""
@@ -701,7 +705,7 @@ def settle(err, shrink, h, t, n_nonfinite, n_rej, n_acc):
     return False, verdict, h, n_nonfinite, n_rej + 1, n_acc
 
 
-@njit(cache=True)
+@njit(cache=False, inline='always')
 def pi_start(h):
     """The state of ``pi_control`` at the start: (hnew, facold, reject, new_branch)."""
     return h, FACOLD0, False, False

@@ -110,7 +110,7 @@ def _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z):
     rhs(t_new, ynew, p, z, k7)
 
 
-@njit(cache=True)
+@njit(cache=False, inline='always')
 def stage_vectors(n):
     """k1..k7, the stage derivatives of a step (7 vectors of n)."""
     return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),

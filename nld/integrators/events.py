@@ -205,7 +205,7 @@ def locate_earliest(events, interp, n_samples, t, h, t_new, gcur, gnew, sgn, con
     return True, a_star, t_star, first
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def log_event(ev_t, ev_k, ev_dir, n_ev, max_log, t, k, direction):
     """Entry n_ev of the event log (time, event index, direction), written while the log has room
     (max_log entries); returns n_ev + 1 (events are counted beyond the log)."""
