@@ -77,6 +77,27 @@ def test_arclength_crosses_a_kink_by_a_natural_step(impact_orbit, monkeypatch):
     assert np.allclose(got.points, ref.orbits[-1].points, atol=1e-8)
 
 
+def test_a_fold_whose_multipliers_jump_is_called_non_smooth(impact_orbit):
+    """The fold test (prod(mu - 1) changes sign) between two branch points names a smooth fold
+    when a multiplier is near +1 on a side of the bracket, and says 'non-smooth' when both sides'
+    nearest multipliers stay 0.1 or more away from it (they jumped across a kink of the branch)."""
+    import dataclasses
+
+    import nld.analysis.continuation as cont
+    S, o = impact_orbit
+    fam = cont.Family(S, "d")
+
+    def with_mu(*mu):
+        return dataclasses.replace(o, multipliers=np.array(mu, dtype=complex), continuum=False)
+    smooth = cont._detect(fam, o.map, 1.5, with_mu(0.97, 0.2), 1.51, with_mu(1.02, 0.2), 1e-8,
+                          False, 1e-4)
+    jump = cont._detect(fam, o.map, 1.5, with_mu(0.85, 0.2), 1.51, with_mu(1.30, 0.2), 1e-8,
+                        False, 1e-4)
+    assert [b.kind for b in smooth] == ["fold"] == [b.kind for b in jump]
+    assert "non-smooth" not in smooth[0].detail and abs(smooth[0].multiplier - 1.02) < 1e-12
+    assert "non-smooth" in jump[0].detail and "0.85 and 1.3" in jump[0].detail
+
+
 def test_period_doubling_where_the_brute_force_diagram_doubles():
     S = duffing(gamma=0.20)
     o = periodic_orbit(S, 1, transient=50, rtol=1e-10)

@@ -535,6 +535,8 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
     return [x for x, _ in ordered], [o for _, o in ordered], "; ".join(msgs) or "completed"
 
 
+SMOOTH_CROSSING = 0.1       # a fold / period doubling whose multiplier stays this far from +-1
+                            # on both sides of its bracket is called non-smooth (a jump)
 NATURAL_STEP_MIN = 1e-2     # the shortest natural step tried across a non-smooth point, x ds
 
 
@@ -607,19 +609,32 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
                 return tv is not None and math.copysign(1.0, tv) == sign_a
             v, o1, o2, w = _bisect(fam, like, va, oa, vb, ob, same, locate_tol, tol)
         else:
-            v, o1, w = 0.5 * (va + vb), oa, abs(vb - va)
-        mu = _critical(o1)
+            v, o1, o2, w = 0.5 * (va + vb), oa, ob, abs(vb - va)
         target = {"period_doubling": -1.0, "fold": 1.0}.get(kind)
-        if target is not None:
-            crit = mu[int(np.argmin(np.abs(mu - target)))] if mu.size else None
-        else:
-            cpl = mu[np.abs(mu.imag) > 0]
-            crit = cpl[int(np.argmin(np.abs(np.abs(cpl) - 1.0)))] if cpl.size else None
         name = {"period_doubling": "period doubling (a multiplier through -1)",
                 "fold": "fold (a multiplier through +1)",
                 "neimark_sacker": "Neimark-Sacker (a complex pair through |mu| = 1)"}[kind]
+        jump = ""
+        if target is not None:
+            # the multiplier nearest the crossing value on each side of the bracket
+            near = []
+            for o in (o1, o2):
+                mu = _critical(o)
+                near.append(mu[int(np.argmin(np.abs(mu - target)))] if mu.size else None)
+            crit = min((c for c in near if c is not None), key=lambda c: abs(c - target),
+                       default=None)
+            if all(c is not None and abs(c - target) > SMOOTH_CROSSING for c in near):
+                # the test changed sign but no multiplier is near the crossing value on either
+                # side: the multipliers jump (a non-smooth point of the branch, e.g. where the
+                # contact pattern changes within the bracket), not a smooth bifurcation
+                jump = (f"; non-smooth: no multiplier near {target:+g} on either side (nearest "
+                        f"{near[0].real:.3g} and {near[1].real:.3g}): the multipliers jump")
+        else:
+            cpl = _critical(o1)
+            cpl = cpl[np.abs(cpl.imag) > 0]
+            crit = cpl[int(np.argmin(np.abs(np.abs(cpl) - 1.0)))] if cpl.size else None
         out.append(Bifurcation(kind, float(v), float(w), None if crit is None else complex(crit),
-                               o1, f"{name} at {fam.param} = {v:.6g} ± {w:.2g}", (va, vb)))
+                               o1, f"{name} at {fam.param} = {v:.6g} ± {w:.2g}{jump}", (va, vb)))
     if ta["contacts"] != tb["contacts"]:
         ca = ta["contacts"]
         if locate:
