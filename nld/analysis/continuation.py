@@ -535,7 +535,7 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
     return [x for x, _ in ordered], [o for _, o in ordered], "; ".join(msgs) or "completed"
 
 
-SMOOTH_CROSSING = 0.1       # a fold / period doubling whose multiplier stays this far from +-1
+SMOOTH_CROSSING = 0.05      # a fold / period doubling whose multiplier stays this far from +-1
                             # on both sides of its bracket is called non-smooth (a jump)
 NATURAL_STEP_MIN = 1e-2     # the shortest natural step tried across a non-smooth point, x ds
 
