@@ -30,8 +30,13 @@ def test_grazing_located_where_the_free_orbit_reaches_the_stop(impact_orbit):
         graze = [b for b in br.bifurcations if b.kind == "grazing"]
         assert len(graze) == 1, method
         g = graze[0]
-        assert abs(g.value - d_graze) <= max(g.tolerance, 1e-6) + 1e-6, (method, g.value, d_graze)
-        assert g.orbit.onsets_per_period == 1 and g.orbit.min_approach_speed < 0.01
+        # within the stated width: a contact too shallow for the event detection is found on
+        # the trajectory (continuation._enters_contact), so the located value is not biased low
+        assert abs(g.value - d_graze) <= g.tolerance, (method, g.value, d_graze, g.tolerance)
+        # the contact side's orbit: one onset at a vanishing approach speed, or a contact too
+        # shallow to count, seen on its trajectory
+        assert ((g.orbit.onsets_per_period == 1 and g.orbit.min_approach_speed < 0.01)
+                or (g.orbit.onsets_per_period == 0 and "too shallow" in g.detail)), g.detail
         # beyond it the orbit is the free harmonic one, no contact, multiplier modulus exp(-zeta T)
         far = br.orbits[-1]
         assert far.onsets_per_period == 0

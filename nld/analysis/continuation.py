@@ -262,7 +262,7 @@ def _arclength_corrector(fam, like_map, o_prev: PeriodicOrbit, V_pred, t_vec, la
         X = V[:-1].reshape(npts, m.n) * sh.s
         try:
             r, J, steps = sh.evaluate(X, Z, True)
-            dl = 1e-6 * max(abs(lam), lam_scale * 1e-3)
+            dl = PARAM_FD_STEP * lam_scale
             m2 = fam.map_at(lam + dl, like_map)
             r2, _, _ = _Shooting(m2, p, multiple).evaluate(X, Z, False)
         except (SolveError, InputError, SceneError):
@@ -319,7 +319,7 @@ def _tangent(fam, like_map, o: PeriodicOrbit, value, lam_scale, prev_t=None):
     X = o.points[:npts]
     Z = [np.array(z) for z in o.z[:npts]]
     r, J, _ = sh.evaluate(X, Z, True)
-    dl = 1e-6 * max(abs(value), lam_scale * 1e-3)
+    dl = PARAM_FD_STEP * lam_scale
     r2, _, _ = _Shooting(fam.map_at(value + dl, like_map), p, multiple).evaluate(X, Z, False)
     Gl = (r2 - r) / dl * lam_scale
     fz = _frozen(o, m)
@@ -535,6 +535,12 @@ def _arclength(fam, like, orbit, v0, a, b, ds, max_points, tol, progress, on_poi
     return [x for x, _ in ordered], [o for _, o in ordered], "; ".join(msgs) or "completed"
 
 
+# G_lambda (the residual's derivative in the parameter) is a forward difference over 1/100 of
+# lambda's unit (1/5000 of the requested range): the residual carries the integration error
+# (~rtol), and the former step of 1e-6 lambda let that noise swing G_lambda by orders of magnitude
+# and change its sign between Newton iterations (slider_crank_olyaei in permanent contact at
+# mu = 0.1: the corrector never converged); with this step it converges in 3 iterations
+PARAM_FD_STEP = 1e-2
 SMOOTH_CROSSING = 0.05      # a fold / period doubling whose multiplier stays this far from +-1
                             # on both sides of its bracket is called non-smooth (a jump)
 NATURAL_STEP_MIN = 1e-2     # the shortest natural step tried across a non-smooth point, x ds
@@ -576,11 +582,53 @@ def _bisect(fam, like, va, oa, vb, ob, same_side, tol_v, tol, max_iter=40):
             break
         if not om.converged:
             break
-        if same_side(om):
+        if same_side(om, vm):
             va, oa = vm, om
         else:
             vb, ob = vm, om
     return 0.5 * (va + vb), oa, ob, abs(vb - va)
+
+
+MISSED_CONTACT_SAMPLES = 4001   # trajectory samples per period checked for a missed contact
+
+
+def _enters_contact(fam, like, o: PeriodicOrbit, value) -> bool:
+    """Whether the orbit's trajectory (one period, MISSED_CONTACT_SAMPLES samples) has a contact
+    event function both > 0 (in contact: penetration) and < 0 somewhere: a contact entered and
+    left. The peak between samples is the vertex of the parabola through the three samples around
+    the largest value, so a contact shallower than the sample spacing is seen. Only for
+    stroboscopic maps of flows with contact events; False otherwise."""
+    m = fam.map_at(value, like)
+    if not isinstance(m, StroboscopicMap) or m.contacts.size == 0:
+        return False
+    sysm = m.flow
+    g = np.zeros(max(1, int(sysm.n_events)))
+    for i in range(o.period):
+        try:
+            t, Y, Z = m.trajectory(o.points[i], o.z[i], MISSED_CONTACT_SAMPLES, with_z=True)
+        except SolveError:
+            return False
+        G = np.empty((t.size, m.contacts.size))
+        for k in range(t.size):
+            sysm.events(float(t[k] + m.t0), np.ascontiguousarray(Y[k]), sysm.p,
+                        np.ascontiguousarray(Z[k]), g)
+            G[k] = g[m.contacts]
+        for j in range(m.contacts.size):
+            gj = G[:, j]
+            if not np.any(gj < 0.0):
+                continue                    # in contact throughout: no onset to miss
+            k = int(np.argmax(gj))
+            peak = gj[k]
+            if peak <= 0.0 and 0 < k < gj.size - 1:
+                # the peak between samples: the vertex of the parabola through the three samples
+                # around the largest (a contact shallower than the sample spacing resolves)
+                g0, g1, g2 = gj[k - 1], gj[k], gj[k + 1]
+                curv = g2 - 2.0 * g1 + g0
+                if curv < 0.0:
+                    peak = g1 - (g2 - g0) ** 2 / (8.0 * curv)
+            if peak > 0.0:
+                return True
+    return False
 
 
 def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
@@ -604,7 +652,7 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
     for kind, key in checks:
         sign_a = math.copysign(1.0, ta[key])
         if locate and kind != "fold":
-            def same(o, key=key, sign_a=sign_a):
+            def same(o, v, key=key, sign_a=sign_a):
                 tv = _tests(o)[key]
                 return tv is not None and math.copysign(1.0, tv) == sign_a
             v, o1, o2, w = _bisect(fam, like, va, oa, vb, ob, same, locate_tol, tol)
@@ -638,12 +686,25 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
     if ta["contacts"] != tb["contacts"]:
         ca = ta["contacts"]
         if locate:
+            def contacts(o, v):
+                # an orbit with fewer counted onsets whose trajectory nevertheless enters a
+                # contact (and leaves it) has a contact too shallow for the event detection:
+                # count it as on the contact side, else grazing is located short of its value
+                n = o.onsets_per_period
+                if n < max(ta["contacts"], tb["contacts"]) and _enters_contact(fam, like, o, v):
+                    return n + 1
+                return n
             v, o1, o2, w = _bisect(fam, like, va, oa, vb, ob,
-                                   lambda o: o.onsets_per_period == ca, locate_tol, tol)
+                                   lambda o, v: contacts(o, v) == ca, locate_tol, tol)
         else:
             v, o1, o2, w = 0.5 * (va + vb), oa, ob, abs(vb - va)
         with_contact = o1 if o1.onsets_per_period > o2.onsets_per_period else o2
         speed = with_contact.min_approach_speed
+        shallow = with_contact.onsets_per_period == 0
+        if shallow:
+            # the bracket's contact side has a contact too shallow to be counted (it entered the
+            # contact side by _enters_contact): its approach speed is below the detection's
+            speed = 0.0
         far = oa if oa.onsets_per_period > ob.onsets_per_period else ob
         # grazing: the approach speed goes to zero as the contact is lost; a contact count that
         # changes at a finite approach speed is a jump to another orbit (not a grazing)
@@ -651,10 +712,11 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
                  and speed <= 0.2 * far.min_approach_speed)
         kind = "grazing" if graze else "contact_change"
         what = "grazing" if graze else "contact count change at a finite approach speed (a jump)"
+        side = ("a contact too shallow for the event detection on the contact side (seen on "
+                "its trajectory)" if shallow else f"approach speed {speed:.3g} on the contact side")
         detail = (f"{what}: contacts per period {o1.onsets_per_period} -> "
-                  f"{o2.onsets_per_period} at {fam.param} = {v:.6g} ± {w:.2g} (approach speed "
-                  f"{speed:.3g} on the contact side, {far.min_approach_speed:.3g} at the branch "
-                  f"point)")
+                  f"{o2.onsets_per_period} at {fam.param} = {v:.6g} ± {w:.2g} ({side}, "
+                  f"{far.min_approach_speed:.3g} at the branch point)")
         out.append(Bifurcation(kind, float(v), float(w), None, with_contact, detail, (va, vb)))
     return out
 
