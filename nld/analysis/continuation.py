@@ -700,7 +700,10 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol):
             v, o1, o2, w = 0.5 * (va + vb), oa, ob, abs(vb - va)
         with_contact = o1 if o1.onsets_per_period > o2.onsets_per_period else o2
         speed = with_contact.min_approach_speed
-        shallow = with_contact.onsets_per_period == 0
+        # the contact side's end counts fewer onsets than the branch's contact side: it was put
+        # there by _enters_contact (a contact too shallow to count); with locate=False the ends
+        # are the branch points themselves
+        shallow = locate and with_contact.onsets_per_period < max(ta["contacts"], tb["contacts"])
         if shallow:
             # the bracket's contact side has a contact too shallow to be counted (it entered the
             # contact side by _enters_contact): its approach speed is below the detection's
