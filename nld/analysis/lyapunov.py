@@ -42,7 +42,8 @@ from numba import njit
 
 from nld.errors import InputError
 from nld.settings import BENETTIN, BENETTIN_SPANS, LYAPUNOV, TANGENT, TANGENT_SPANS, check_rtol
-from nld.systems.core import advance, builtin_map, builtin_map_jac, period_shift, wrap_angles
+from nld.systems.core import (advance, builtin_map, builtin_map_jac, period_shift, restart_labels,
+                              wrap_angles)
 
 __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_benettin",
            "largest_exponent", "ESTIMATORS",
@@ -774,7 +775,8 @@ def _advance_bounded(system, y, z, t0, t1, rtol):
     while t < t1:
         te = min(t1, t + span)
         sh = period_shift(system, t)
-        y, z = advance(system, wrap_angles(system, y), z, t - sh, te - sh, rtol)
+        y = wrap_angles(system, y)
+        y, z = advance(system, y, restart_labels(system, t - sh, y, z), t - sh, te - sh, rtol)
         t = te
     return y, z
 
@@ -881,6 +883,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         n_al = max(1, int(round(align / T)))
         sh = period_shift(system, t)
         y = wrap_angles(system, y)
+        z = restart_labels(system, t - sh, y, z)
         run = run_tangent(system, y, z, W, Wz, t - sh, (t - sh) + T * np.arange(1, n_al + 1),
                           rtol, tangent_err=tangent_err, h0=h)
         y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t + sh
@@ -907,6 +910,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
             # near the time origin, angles wrapped (systems.period_shift, wrap_angles)
             sh = period_shift(system, t)
             y = wrap_angles(system, y)
+            z = restart_labels(system, t - sh, y, z)
             marks = (t - sh) + T * np.arange(1, m + 1)
             run = run_tangent(system, y, z, W, Wz, t - sh, marks, rtol, tangent_err=tangent_err,
                               h0=h, diag=diag)

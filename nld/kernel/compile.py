@@ -65,6 +65,21 @@ class Kernel:
         self.module.init_modes(float(t), np.ascontiguousarray(y, dtype=float),
                                np.ascontiguousarray(p, dtype=float), z)
 
+    def time_labels(self):
+        """``f(t, y, p, z)`` setting in place the entries of z that the time decides (the branches
+        of the scene's switched loads) as ``init_modes`` sets them, every other entry kept; None
+        when the scene has no switched load. For restarts from a state reached at another time
+        (``nld.systems.core.restart_labels``)."""
+        idx = np.array(sorted(self.z_layout.load.values()), dtype=np.int64)
+        if idx.size == 0:
+            return None
+
+        def relabel(t, y, p, z, _kern=self, _idx=idx):
+            zz = np.array(z, dtype=float)
+            _kern.init_modes(t, y, p, zz)
+            z[_idx] = zz[_idx]
+        return relabel
+
     def params(self, scene: Scene | None = None) -> np.ndarray:
         """Parameter vector of ``scene`` (default: the scene compiled) for this kernel."""
         s = scene or self.scene

@@ -343,6 +343,12 @@ def simulate(scene: Scene | str, *, t_end: float | None = None, revs: float | No
     else:
         y0, z0 = state_arg("y0", y0, kern.n_state), state_arg("z0", z0, kern.n_z)
         q_init = None
+    relabel = kern.time_labels()
+    if relabel is not None:
+        # a given z0 may come from a run that stopped at another time (a whole revolution
+        # before a crank_halves switch): the switched loads' branches from (t0, y0)
+        z0 = np.array(z0, dtype=float)
+        relabel(t0, np.ascontiguousarray(y0, dtype=float), p, z0)
     z = np.array(z0, dtype=float)
     ncols = len(kern.columns)
     start = time.perf_counter()

@@ -331,6 +331,27 @@ def wrap_angles(system, y, like=None):
     return out
 
 
+def restart_labels(system, t: float, y, z) -> np.ndarray:
+    """z with the labels that the time decides set from (t, y): the branches of a scene's
+    switched loads (``crank_halves``: sin of the crank angle; ``angle_threshold``), by the
+    kernel's ``init_modes``; every other entry (contact memory, stick/slip modes) kept. Returns a
+    new array (z itself for a system without such labels).
+
+    Called where an integration restarts from a state that a run reached at another time: a
+    run continued near the time origin (``period_shift``), a map's next iteration from t0. A
+    ``crank_halves`` load switches at every whole crank revolution, exactly where stroboscopic
+    runs stop: a run that stops a round-off before the switch carries the old branch, and the
+    restart at the shifted time, where sin(omega t) is exactly 0 or of the other sign, saw no
+    crossing, so the load kept the wrong sign for half a revolution (found on the excavator:
+    tangent runs that sat in one-impact motions for tens of revolutions, docs/lyapunov.md)."""
+    f = getattr(system, "relabel_time_labels", None)
+    if f is None:
+        return z
+    z = np.array(z, dtype=float)
+    f(float(t), np.ascontiguousarray(y, dtype=float), system.p, z)
+    return z
+
+
 def period_shift(system, t: float) -> float:
     """A whole number of forcing periods to subtract from the time t so that an integration
     starting at t runs near the time origin: exact for a periodic forcing, and it keeps the
@@ -662,6 +683,7 @@ def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
     sysm.scene = scene
     sysm.kernel = kern
     sysm.init_modes = kern.init_modes
+    sysm.relabel_time_labels = kern.time_labels()
     sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
                                   if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
                                  dtype=np.int64)

@@ -33,7 +33,7 @@ import numpy as np
 from nld.errors import InputError, SolveError
 from nld.integrators.core import as_solution
 from nld.integrators.tangent import N_DIAG, DG_DIV, DG_LOGDET, DG_GRAZE, crossing_diag
-from nld.systems.core import failure_message, wrap_angles as wrap_angles_of
+from nld.systems.core import failure_message, restart_labels, wrap_angles as wrap_angles_of
 from nld.systems.section import locate_crossing
 
 __all__ = ["MapStep", "SectionRun", "StroboscopicMap", "PoincareMap", "NumbaMap", "as_map",
@@ -231,6 +231,8 @@ class _FlowMap:
         init = getattr(self.flow, "init_modes", None)
         if relabel and init is not None:
             init(self.t0, np.ascontiguousarray(y), self.flow.p, z)
+        # the map restarts at t0 whatever time x was reached at: the time's labels from y
+        z = restart_labels(self.flow, self.t0, y, z)
         if self.memory.size:
             z[self.memory] = x[self.n_y:]
         return y, z
@@ -409,6 +411,7 @@ class StroboscopicMap(_FlowMap):
                                   Y=np.zeros((0, self.n_y)), Z=np.zeros((0, zz.size)), status=-1,
                                   t_reached=t0, z_reached=np.array(zz))
             y = wrap_angles_of(self.flow, out.Y[0].copy())
+            zz = restart_labels(self.flow, t0, y, zz)
         # time restarts at t0 after the transient (the forcing is T-periodic)
         k0 = 0 if start else 1
         te = t0 + self.T * np.arange(k0, n + k0)
