@@ -68,11 +68,12 @@ from nld.integrators.core import (BETA, EVENTS_SIG, FACC1, FACC2, ON_EVENT_SIG, 
                                   STOPPED, Solution, drop_stale_caches, event_workspace,
                                   finish, fire, first_step, initial_rows, native, new_run,
                                   next_step, no_events, no_on_event, pi_control, pi_start,
-                                  retake_finite, running, state_vector, step_cap, vector,
-                                  write_outputs)
+                                  retake_finite, rms_error, running, state_vector, step_cap,
+                                  vector, write_outputs)
 from nld.integrators.dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62,
                                     A63, A64, A65, A71, A73, A74, A75, A76, C2, C3, C4, C5,
-                                    EXPO1, _error_norm, dense_coeffs, interp, stage_vectors)
+                                    EXPO1, dense_coeffs, error_estimate, interp,
+                                    stage_vectors)
 from nld.integrators.events import (EPS, EVENT_SAMPLES, ROOT_RTOL, locate_earliest,
                                     set_unknown_signs)
 
@@ -429,7 +430,8 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
         _dstep(rhs, coupling, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, pe, z, v,
                u, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx, hc, hs, ht0, hh, ht1, count)
         nfev += 6
-        err = _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol)
+        error_estimate(h, k1, k3, k4, k5, k6, k7, ytmp)     # ytmp is free after the stages
+        err = rms_error(y, ynew, ytmp, atol, rtol)
         ok, status, h, hnew, facold, n_nonfinite, reject, new_branch, n_rej, n_acc = pi_control(
             err, EXPO1, BETA, FACC1, FACC2, h, t, hnew, facold, n_nonfinite, reject, new_branch,
             n_rej, n_acc)

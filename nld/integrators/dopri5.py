@@ -22,8 +22,6 @@ step-size control, initial step, output writing and statuses are nld.integrators
 file holds the tableau, the stages, the error estimate, the dense output and the loop.
 """
 
-import math
-
 import numpy as np
 from numba import njit
 
@@ -32,8 +30,9 @@ from .core import (ACCEPTED, BETA, EPS, EXPO_EVENT, FACC1, FACC1_EVENT, FACC2,  
                    FACMAX, FACMIN, FACOLD0, MAX_NONFINITE, MAX_STEPS, NON_FINITE, RETRY, RUNNING,
                    SAFE, STEP_UNDERFLOW, STOPPED, SUCCESS, event_workspace, fire_and_restart,
                    fixed_times, front, judge, method_status_message, new_run, next_step,
-                   no_events, no_on_event, pi_accept, pi_start, rejected_shrink, retake_finite,
-                   rweight, solution, start, work_vectors, write_outputs)
+                   no_events, no_on_event, pi_accept, pi_control, pi_start, rejected_shrink,
+                   retake_finite, rms_error, running, rweight, solution, start, work_vectors,
+                   write_outputs)
 from .events import (EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
                      fire_events, locate_earliest, set_unknown_signs)
 
@@ -118,27 +117,11 @@ def stage_vectors(n):
 
 
 @njit(cache=True)
-def _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol):
-    """RMS of err_i / (atol_i + rtol*max(|y_i|, |ynew_i|)); NaN if anything is non-finite.
-
-    The norm of ``nld.integrators.core.rms_error`` with the estimate formed inline: the shared
-    norm of a stored estimate made a DOPRI5 step 1-3 % slower (docs/performance.md)."""
-    n = y.shape[0]
-    acc = 0.0
-    for i in range(n):
-        yn = ynew[i]
-        if not math.isfinite(yn):
-            return np.nan
-        e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i])
-        sk = atol[i] + rtol * rweight(atol, n, i) * max(abs(y[i]), abs(yn))
-        q = e / sk
-        acc += q * q
-    if n == 0:
-        return 0.0
-    err = math.sqrt(acc / n)
-    if not math.isfinite(err):
-        return np.nan
-    return err
+def error_estimate(h, k1, k3, k4, k5, k6, k7, e):
+    """Hairer's error estimate of a DOPRI5 step, (5th order) - (embedded 4th order), into e; its
+    norm is ``nld.integrators.core.rms_error``."""
+    for i in range(e.shape[0]):
+        e[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i])
 
 
 @njit(cache=True)
@@ -203,32 +186,21 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     hnew, facold, reject, new_branch = pi_start(h)
 
     while True:
-        if t >= t_end:
-            status = SUCCESS
-            break
-        if n_steps >= max_steps:
-            status = MAX_STEPS
+        status = running(status, t, t_end, n_steps, max_steps)
+        if status != RUNNING:
             break
         t_new, h = next_step(t, h, hcap, t_eval[i_out] if land else t_end)
         n_steps += 1
 
         _stages(rhs, t, h, t_new, y, k1, k2, k3, k4, k5, k6, k7, ytmp, ynew, p, z)
         nfev += 6
-        err = _error_norm(h, y, ynew, k1, k3, k4, k5, k6, k7, atol, rtol)
-        fac11 = err ** EXPO1
-        verdict, h, n_nonfinite = judge(err, h, t, n_nonfinite,
-                                        rejected_shrink(err, fac11, FACC1, new_branch))
-        if verdict != ACCEPTED:
-            n_rej += 1
-            reject = True
-            if verdict != RETRY:
-                status = verdict
-                break
+        error_estimate(h, k1, k3, k4, k5, k6, k7, ytmp)     # ytmp is free after the stages
+        err = rms_error(y, ynew, ytmp, atol, rtol)
+        ok, status, h, hnew, facold, n_nonfinite, reject, new_branch, n_rej, n_acc = pi_control(
+            err, EXPO1, BETA, FACC1, FACC2, h, t, hnew, facold, n_nonfinite, reject, new_branch,
+            n_rej, n_acc)
+        if not ok:
             continue
-        hnew, facold = pi_accept(h, err, fac11, facold, reject, BETA, FACC1, FACC2)
-        reject = False
-        new_branch = False
-        n_acc += 1
 
         # ------------------------------------------------ event detection and location
         have_event = False
