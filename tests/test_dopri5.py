@@ -356,10 +356,13 @@ def _jitted_driver(t_eval, p, z, rtol, atol):
                        False, p, z, rtol, atol, 0.0, 0.0, 100000, 1, 16, EVENT_SAMPLES)
 
 
+@pytest.mark.slow
 def test_callable_from_jitted_code_and_inlined_equals_indirect():
     """The core called from jitted code with the functions inlined gives the same trajectory,
     events and counts, bit for bit, as the compiled-once integrator with the functions passed as
-    first-class function arguments (no arithmetic differs between the two builds)."""
+    first-class function arguments (no arithmetic differs between the two builds). Slow: it
+    compiles a whole inlined DOPRI5 (8 s); the default run keeps the same bit-for-bit check on a
+    scene (tests/test_compile_once.py, the shipped contact law)."""
     te = np.linspace(0.0, 4.0 * T1, 9)
     p = np.array([A_G, 0.0])
     z = np.array([1.0, 0.0, 0.0])

@@ -202,3 +202,35 @@ def test_chaos_analysis_table_matches_stored_sections(quick_run):
     assert np.allclose(ok["lambda_per_rev"], ok["lambda"] * period, rtol=1e-9)
     spectra, _ = load_table(out / "zhang2013_excavator_spectra.parquet")
     assert {f"{n}:{j}" for n in study.CASES for j in "AB"} == set(spectra["case"])
+
+
+def test_the_verdict_check_runs_from_the_section_end(monkeypatch):
+    """Full mode's check (not in quick mode): a point with a definite verdict gets its exponent
+    again from the same section end, at rtol_check over check_span x the span; the row carries
+    both verdicts and the checked one (nld.study.checked_verdict)."""
+    import nld.analysis.lyapunov as lyap
+    study = load_study("zhang2013_excavator.py")
+    an = dict(study.ANALYSIS_SMOKE, lyap_revs=1, rtol_check=1e-8, check_span=2)
+    calls = []
+    real = lyap.largest_exponent
+
+    def spy(system, estimator, **kw):
+        calls.append((system.y0.copy(), system.z0.copy(), kw["rtol"], kw["total"]))
+        return real(system, estimator, **kw)
+    monkeypatch.setattr(lyap, "largest_exponent", spy)
+    # a definite verdict whatever 1 revolution gives (the check is what is tested here)
+    monkeypatch.setattr(study, "verdict", lambda status, per, uper, n: "chaotic" if status == "ok" else "failed")
+    _, row = study.analysis_point("friction", 0, 0.0, an)
+    assert row["status"] == "ok", row["message"]
+    assert len(calls) == 2
+    (y1, z1, r1, T1), (y2, z2, r2, T2) = calls
+    np.testing.assert_array_equal(y1, y2)                # the same start: the same motion
+    np.testing.assert_array_equal(z1, z2)
+    assert (r1, r2) == (an["rtol"], an["rtol_check"]) and T2 == pytest.approx(2 * T1)
+    assert np.isfinite(row["lambda_check_per_rev"]) and row["lambda_check_unc_per_rev"] > 0
+    assert row["verdict_main"] == row["verdict_check"] == row["verdict"] == "chaotic"
+    # no check where the verdict is uncertain
+    calls.clear()
+    monkeypatch.setattr(study, "verdict", lambda status, per, uper, n: "uncertain")
+    _, row = study.analysis_point("friction", 0, 0.0, an)
+    assert len(calls) == 1 and row["verdict_check"] == "" and row["verdict"] == "uncertain"
