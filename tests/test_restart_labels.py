@@ -97,3 +97,18 @@ def test_the_tangent_run_does_not_depend_on_the_carried_branch(excavator):
         out.append(r)
     np.testing.assert_array_equal(out[0].local_rates, out[1].local_rates)
     assert out[0].diagnostics["upward_crossings"] > 3
+
+
+def test_revolution_maxima_from_a_section_point_does_not_depend_on_the_carried_branch(excavator):
+    """nld.analysis.extrema.revolution_maxima(y0=, z0=) restarts at t = 0 as simulate does."""
+    from nld.analysis.extrema import revolution_maxima
+    S, y, z, i0, _ = excavator
+    runs = []
+    for b in (-1.0, 1.0):
+        zb = z.copy()
+        zb[i0] = b
+        runs.append(revolution_maxima("excavator", ["rod.omega"], revs=1, rtol=RTOL,
+                                      samples_per_rev=720, keep_every=1, refine_top=0, y0=y, z0=zb))
+    assert runs[0].status == runs[1].status == 0
+    np.testing.assert_array_equal(runs[0].maxima["peak"], runs[1].maxima["peak"])
+    np.testing.assert_array_equal(runs[0].y_final, runs[1].y_final)

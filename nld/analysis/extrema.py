@@ -141,7 +141,8 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
     nld.analysis.peaks) instead of the assembled one; the modes are set from it. z0: the discrete
     state to go on with (e.g. the ``z_final`` of a run ended at a whole revolution, with y0 its
     ``y_final``: contact modes and onset memory continue, as ``nld.run.simulate(y0=, z0=)``);
-    given, the modes are not reset from y0.
+    given, the modes are not reset from y0, except the branches of switched loads, which the
+    time decides (set from y0 at t = 0, as ``simulate`` does).
     maxima columns: ``rev`` (0 = first revolution after the transient), ``column``, ``t_start``
     (s), ``sampled`` (max over the kept samples of the revolution), ``detected`` (max over the
     detection samples), ``peak`` (refined), ``t_peak`` (s), ``iterations`` (zoom levels, summed
@@ -189,6 +190,11 @@ def revolution_maxima(scene, columns, *, revs: int, transient_revs: int = 0, rto
             raise InputError(f"z0: must be {np.size(z)} finite numbers (the discrete state of scene "
                              f"{scene.name!r}), got shape {z0.shape}")
         z = z0.copy()
+        relabel = kern.time_labels()
+        if relabel is not None:
+            # the run restarts at t = 0 whatever time z0 was reached at: the switched loads'
+            # branches from (0, y), as simulate does (nld.systems.core.restart_labels)
+            relabel(0.0, y, p, z)
     else:
         z = np.array(z, dtype=float)
         kern.init_modes(0.0, y, p, z)
