@@ -334,8 +334,9 @@ def wrap_angles(system, y, like=None):
 def restart_labels(system, t: float, y, z) -> np.ndarray:
     """z with the labels that the time decides set from (t, y): the branches of a scene's
     switched loads (``crank_halves``: sin of the crank angle; ``angle_threshold``), by the
-    kernel's ``init_modes``; every other entry (contact memory, stick/slip modes) kept. Returns a
-    new array (z itself for a system without such labels).
+    kernel's ``init_modes``; every other entry (contact memory, stick/slip modes) kept. t: the
+    restart time in the system's time unit (s for a scene); y: the state there (SI, the
+    kernel's order). Returns a new array (z itself for a system without such labels).
 
     Called where an integration restarts from a state that a run reached at another time: a
     run continued near the time origin (``period_shift``), a map's next iteration from t0. A
