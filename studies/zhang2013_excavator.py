@@ -339,12 +339,15 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
             n_sec = int((sec.table["rev"] >= 0).sum())
             if an.get("rtol_check") and verdict(status, per, uper, n_sec) not in ("uncertain", "failed"):
                 # the verdict check: the same motion (from the same section end) at another
-                # tolerance over another averaging span
-                rc = largest_exponent(system, an.get("estimator", "tangent"),
-                                      total=an["check_span"] * an["lyap_revs"] * sec.period,
-                                      rtol=an["rtol_check"], d0=an.get("d0"),
-                                      tangent_err=an.get("tangent_err"))
-                check = (float(rc.per_revolution), float(rc.uncertainty_per_revolution))
+                # tolerance over another averaging span; a failed check keeps the main result
+                try:
+                    rc = largest_exponent(system, an.get("estimator", "tangent"),
+                                          total=an["check_span"] * an["lyap_revs"] * sec.period,
+                                          rtol=an["rtol_check"], d0=an.get("d0"),
+                                          tangent_err=an.get("tangent_err"))
+                    check = (float(rc.per_revolution), float(rc.uncertainty_per_revolution), "")
+                except Exception as e:       # noqa: BLE001 - a failed check is data
+                    check = (float("nan"), float("nan"), f"check failed: {type(e).__name__}: {e}")
         tab = sec.table.copy()
     except Exception as e:           # noqa: BLE001 - a failed point is data
         status, msg = "failed", f"{type(e).__name__}: {e}"
@@ -365,9 +368,11 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
            "wall_s": time.perf_counter() - t0}
     if check is not None:
         from nld.study import checked_verdict
-        row["lambda_check_per_rev"], row["lambda_check_unc_per_rev"] = check
-        row["verdict_check"] = verdict(status, check[0], check[1], n_pts)
+        row["lambda_check_per_rev"], row["lambda_check_unc_per_rev"], chk_msg = check
+        row["verdict_check"] = verdict("failed" if chk_msg else status, check[0], check[1], n_pts)
         row["verdict"] = checked_verdict(row["verdict_main"], row["verdict_check"])
+        if chk_msg:
+            row["message"] = chk_msg
     return tab, row
 
 

@@ -234,3 +234,17 @@ def test_the_verdict_check_runs_from_the_section_end(monkeypatch):
     monkeypatch.setattr(study, "verdict", lambda status, per, uper, n: "uncertain")
     _, row = study.analysis_point("friction", 0, 0.0, an)
     assert len(calls) == 1 and row["verdict_check"] == "" and row["verdict"] == "uncertain"
+
+    # a check that fails keeps the main result and says so: verdict 'failed' (checked_verdict)
+    calls.clear()
+    monkeypatch.setattr(study, "verdict", lambda status, per, uper, n: "chaotic" if status == "ok" else "failed")
+
+    def failing(system, estimator, **kw):
+        calls.append(kw["rtol"])
+        if kw["rtol"] == an["rtol_check"]:
+            raise RuntimeError("integration stopped")
+        return real(system, estimator, **kw)
+    monkeypatch.setattr(lyap, "largest_exponent", failing)
+    tab, row = study.analysis_point("friction", 0, 0.0, an)
+    assert row["status"] == "ok" and np.isfinite(row["lambda_per_rev"]) and (tab["rev"] >= 0).all()
+    assert row["verdict_check"] == "failed" == row["verdict"] and "check failed" in row["message"]
