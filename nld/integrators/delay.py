@@ -70,6 +70,7 @@ from nld.integrators.core import (BETA, EVENTS_SIG, FACC1, FACC2, ON_EVENT_SIG, 
                                   next_step, no_events, no_on_event, pi_control, pi_start,
                                   retake_finite, rms_error, running, state_vector, step_cap,
                                   vector, write_outputs)
+from nld.integrators.ownership import borrowed, keep_alive
 from nld.integrators.dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62,
                                     A63, A64, A65, A71, A73, A74, A75, A76, C2, C3, C4, C5,
                                     EXPO1, dense_coeffs, error_estimate, interp,
@@ -392,6 +393,14 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
     u = np.empty(nu)
     vn = np.empty((5, m))
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
+    # the loop works on borrowed views of the fixed work arrays and the arguments (no reference
+    # counting; nld.integrators.ownership); the history buffer, which grows, stays owned
+    owners = (y, ynew, ytmp, yint, zsave, k1, k2, k3, k4, k5, k6, k7, cont, pe, pev, v, u, vn, gcur,
+              gnew, gtmp, gw, sgn, troot_a, troot, crossed)
+    (y, ynew, ytmp, yint, zsave, k1, k2, k3, k4, k5, k6, k7, cont, pe, pev, v, u, vn, gcur, gnew,
+     gtmp, gw, sgn, troot_a, troot, crossed) = borrowed(owners)
+    p, z, atol, t_eval, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx = borrowed((
+        p, z, atol, t_eval, taus, cst, cR, Gd, Gy, u0, umax, ikind, iidx))
 
     t = t0
     i_out = initial_rows(t0, y0, z, t_eval, Y, Zo)
@@ -501,6 +510,7 @@ def dde_core(rhs, events, on_event, coupling, t0, y0, t_eval, land, p, z, rtol, 
             break
         h = hnew
     finish(stats, n_steps, n_acc, n_rej, nfev, n_ev)
+    keep_alive(owners)
     # the history kept: pieces ending at or after t - keep
     i0 = 0
     while i0 < count - 1 and ht1[i0] < t - keep:

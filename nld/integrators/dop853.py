@@ -41,6 +41,7 @@ from .core import (MAX_RELOCATE, RUNNING, STIFF, all_finite, copy_vector,
                    event_workspace, fire_and_restart, fixed_times, front, new_run, next_step,
                    pi_control, pi_start, relocate, retake_finite, running, rweight, scan_due,
                    solution, start, work_vectors, write_outputs)
+from .ownership import borrowed, keep_alive
 from .events import (EVENT_SAMPLES, ROOT_RTOL, find_crossings, locate_earliest,  # noqa: F401
                      set_unknown_signs)
 
@@ -404,10 +405,17 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     K = np.empty((16, n))
     cont = np.empty((8, n))
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
+    # the loop works on borrowed views (no reference counting; nld.integrators.ownership)
+    owners = (y, ynew, ytmp, yint, zsave, K, cont, gcur, gnew, gtmp, gw, sgn, troot_a, troot,
+              crossed)
+    (y, ynew, ytmp, yint, zsave, K, cont, gcur, gnew, gtmp, gw, sgn, troot_a, troot,
+     crossed) = borrowed(owners)
+    p, z, atol, t_eval, Yb, Zb, evt, evk, evd = borrowed((p, z, atol, t_eval, Y, Zo, ev_t, ev_k,
+                                                          ev_dir))
 
     t = t0
     i_out, t_end, h, hcap, nfev = start(rhs, events, t0, y, K[0], p, z, atol, rtol, h0, hmax,
-                                        t_eval, Y, Zo, ytmp, K[1], 8.0, gcur, sgn)
+                                        t_eval, Yb, Zb, ytmp, K[1], 8.0, gcur, sgn)
     n_steps = n_acc = n_rej = n_nonfinite = n_ev = 0
     status = RUNNING
     hnew, facold, reject, new_branch = pi_start(h)
@@ -475,7 +483,7 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
                     if not all_finite(cont):
                         n_acc, n_rej, reject, h = _untrusted(n_acc, n_rej, h)
                         continue
-                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Yb, Zb, z)
             t = t_new
             y, ynew = ynew, y
             for i in range(n):          # FSAL
@@ -523,7 +531,7 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
                 _dense(rhs, t, h_c, y, ynew, K, ytmp, cont, p, z)
                 nfev += 3
                 dense_h = h_c
-            i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
+            i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Yb, Zb, z)
             t = t_c
             y, ynew = ynew, y
 
@@ -536,11 +544,12 @@ def dop853_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
             continue
 
         status, n_ev, new_branch, nfev = fire_and_restart(
-            rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, ev_t, ev_k,
-            ev_dir, n_ev, max_log, K[0], gcur, nfev)
+            rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, evt, evk,
+            evd, n_ev, max_log, K[0], gcur, nfev)
         after_event = True
         h = hnew
 
+    keep_alive(owners)
     return solution(status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,
                     nfev)
 

@@ -33,6 +33,7 @@ from .core import (ACCEPTED, BETA, EPS, EXPO_EVENT, FACC1, FACC1_EVENT, FACC2,  
                    no_events, no_on_event, pi_accept, pi_control, pi_start, rejected_shrink,
                    retake_finite, rms_error, running, rweight, solution, start, work_vectors,
                    write_outputs)
+from .ownership import borrowed, keep_alive
 from .events import (EVENT_SAMPLES, ROOT_MAXITER, ROOT_RTOL, find_crossings,  # noqa: F401
                      fire_events, locate_earliest, set_unknown_signs)
 
@@ -177,10 +178,17 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
     k1, k2, k3, k4, k5, k6, k7 = stage_vectors(n)
     cont = np.empty((5, n))                 # dense output of the last step
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
+    # the loop works on borrowed views (no reference counting; nld.integrators.ownership)
+    owners = (y, ynew, ytmp, yint, zsave, k1, k2, k3, k4, k5, k6, k7, cont, gcur, gnew, gtmp, gw,
+              sgn, troot_a, troot, crossed)
+    (y, ynew, ytmp, yint, zsave, k1, k2, k3, k4, k5, k6, k7, cont, gcur, gnew, gtmp, gw, sgn,
+     troot_a, troot, crossed) = borrowed(owners)
+    p, z, atol, t_eval, Yb, Zb, evt, evk, evd = borrowed((p, z, atol, t_eval, Y, Zo, ev_t, ev_k,
+                                                          ev_dir))
 
     t = t0
     i_out, t_end, h, hcap, nfev = start(rhs, events, t0, y, k1, p, z, atol, rtol, h0, hmax,
-                                        t_eval, Y, Zo, ytmp, k2, 5.0, gcur, sgn)
+                                        t_eval, Yb, Zb, ytmp, k2, 5.0, gcur, sgn)
     n_steps = n_acc = n_rej = n_nonfinite = n_ev = 0
     status = RUNNING
     hnew, facold, reject, new_branch = pi_start(h)
@@ -221,7 +229,7 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
             if i_out < n_eval and t_eval[i_out] <= t_new:
                 if t_eval[i_out] < t_new and not dense_done:
                     dense_coeffs(h, y, ynew, k1, k3, k4, k5, k6, k7, cont)
-                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Yb, Zb, z)
             t = t_new
             y, ynew = ynew, y
             k1, k7 = k7, k1     # FSAL
@@ -243,18 +251,19 @@ def dopri5_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rt
                 if retake_finite(ynew, yint):
                     h_d = t_star - t
                     dense_coeffs(h_d, y, ynew, k1, k3, k4, k5, k6, k7, cont)
-            i_out = write_outputs(interp_fn, t, h_d, t_star, ynew, cont, t_eval, i_out, Y, Zo, z)
+            i_out = write_outputs(interp_fn, t, h_d, t_star, ynew, cont, t_eval, i_out, Yb, Zb, z)
             t = t_star
             y, ynew = ynew, y
 
         # fire every crossing whose root is within tol of t_star; restart with k1 and g there
         status, n_ev, new_branch, nfev = fire_and_restart(
-            rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, ev_t, ev_k,
-            ev_dir, n_ev, max_log, k1, gcur, nfev)
+            rhs, events, on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, zsave, evt, evk,
+            evd, n_ev, max_log, k1, gcur, nfev)
         if status != RUNNING:
             break
         h = hnew
 
+    keep_alive(owners)
     return solution(status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,
                     nfev)
 

@@ -38,6 +38,7 @@ from .core import (EPS, MAX_RELOCATE, NON_FINITE, RUNNING, SINGULAR, STOPPED, co
                    event_workspace, finite, fixed_times, front, new_run, next_step,
                    no_events, relocate, rms_error, running, scan_due, settle, solution, start,
                    work_vectors, write_outputs)
+from .ownership import borrowed, keep_alive
 from .events import (EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,  # noqa: F401
                      set_unknown_signs)
 from .dopri5 import ROOT_RTOL  # noqa: F401
@@ -403,11 +404,19 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
     typ = np.empty(n)
     gcur, gnew, gtmp, gw, sgn, troot_a, troot, crossed = event_workspace(ne)
 
+    # the loop works on borrowed views (no reference counting; nld.integrators.ownership)
+    owners = (y, ynew, ytmp, yint, f0, fx, dy, AK, J, E, piv, cont, typ, gcur, gnew, gtmp, gw, sgn,
+              troot_a, troot, crossed)
+    (y, ynew, ytmp, yint, f0, fx, dy, AK, J, E, piv, cont, typ, gcur, gnew, gtmp, gw, sgn,
+     troot_a, troot, crossed) = borrowed(owners)
+    p, z, atol, t_eval, Yb, Zb, evt, evk, evd = borrowed((p, z, atol, t_eval, Y, Zo, ev_t, ev_k,
+                                                          ev_dir))
+
     for i in range(n):
         typ[i] = atol[i] / rtol
     t = t0
     i_out, t_end, h, hcap, nfev = start(rhs, events, t0, y, f0, p, z, atol, rtol, h0, hmax,
-                                        t_eval, Y, Zo, ytmp, dy, 4.0, gcur, sgn)
+                                        t_eval, Yb, Zb, ytmp, dy, 4.0, gcur, sgn)
     n_steps = n_acc = n_rej = n_nonfinite = n_ev = 0
     status = RUNNING
     njac = 0
@@ -504,7 +513,7 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
             if i_out < n_eval and t_eval[i_out] <= t_new:
                 if t_eval[i_out] < t_new and not dense_done:
                     _dense(y, ynew, AK, cont)
-                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Y, Zo, z)
+                i_out = write_outputs(interp_fn, t, h, t_new, ynew, cont, t_eval, i_out, Yb, Zb, z)
             t = t_new
             y, ynew = ynew, y
             if ne > 0:
@@ -544,7 +553,7 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
                 break           # the event comes later: t_c is a plain step end
 
         if t_star > t:
-            i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Y, Zo, z)
+            i_out = write_outputs(interp_fn, t, dense_h, t_c, ynew, cont, t_eval, i_out, Yb, Zb, z)
             t = t_c
             y, ynew = ynew, y
 
@@ -555,8 +564,8 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
             continue
 
         # fire; restart with g there (f0 and the Jacobian at the next step)
-        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, ev_t,
-                                 ev_k, ev_dir, n_ev, max_log)
+        stop, n_ev = fire_events(on_event, crossed, troot, t_star, tol, sgn, t, y, p, z, evt,
+                                 evk, evd, n_ev, max_log)
         events(t, y, p, z, gcur)
         set_unknown_signs(gcur, sgn)
         if stop:
@@ -564,6 +573,7 @@ def rodas_core(rhs, events, on_event, interp_fn, t0, y0, t_eval, land, p, z, rto
             break
         h = hnew
 
+    keep_alive(owners)
     stats[5] = njac
     stats[6] = nlu
     return solution(status, t, Y, i_out, stats, ev_t, ev_k, ev_dir, n_ev, Zo, n_steps, n_acc, n_rej,

@@ -50,6 +50,7 @@ from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62,
 from .core import (EVENTS_SIG, INTERP_SIG, JVP_SIG, ON_EVENT_JVP_SIG, ON_EVENT_SIG, RHS_SIG, native,
                    no_events, no_on_event, state_vector, vector)
 from .events import EVENT_SAMPLES, ROOT_RTOL, locate_earliest, set_unknown_signs
+from .ownership import borrowed, keep_alive
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
 # diag entries
@@ -257,6 +258,16 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
     i_mark = 0
     if n_marks == 0:
         return 0, t, y, 0, stats, h0
+    # the loop works on borrowed views (no reference counting; nld.integrators.ownership); the
+    # state returned is an owned copy
+    owners = (y, ynew, ytmp, yint, ya, yb, KY, KW, Wt, Wnew, wtmp, unit, trace_tmp, cont, fminus,
+              fplus, zold, zcopy, gcur, gnew, gtmp, gw, sgn, troot_a, troot_b, crossed, gd, zzero,
+              zdz)
+    (y, ynew, ytmp, yint, ya, yb, KY, KW, Wt, Wnew, wtmp, unit, trace_tmp, cont, fminus, fplus,
+     zold, zcopy, gcur, gnew, gtmp, gw, sgn, troot_a, troot_b, crossed, gd, zzero,
+     zdz) = borrowed(owners)
+    z, W, Wz, marks, p, atol, scales, diag, logs = borrowed((z, W, Wz, marks, p, atol, scales, diag,
+                                                            logs))
     t_end = marks[n_marks - 1]
     n_steps = n_acc = n_rej = n_nonfinite = 0
     status = RUNNING
@@ -470,7 +481,9 @@ def dopri5_tangent_core(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp
         h = hnew
 
     finish(stats, n_steps, n_acc, n_rej, nfev, int(diag[DG_EVENTS]))
-    return status, t, y, i_mark, stats, hnew
+    y_end = y.copy()
+    keep_alive(owners)
+    return status, t, y_end, i_mark, stats, hnew
 
 
 @njit(cache=True)
