@@ -48,6 +48,7 @@ from numba.core.typing.typeof import typeof_impl
 
 from nld.errors import InputError
 
+from .aot import compiled
 from .events import (EPS, EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,
                      set_unknown_signs)
 
@@ -826,7 +827,7 @@ def front(core, interp):
     def solve(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
               n_events, max_log, event_samples=EVENT_SAMPLES):
         f, g, o = functions(rhs, events, on_event)
-        return Solution(*core(f, g, o, native(interp, INTERP_SIG, "interp"), float(t0), vector(y0), vector(t_eval), bool(land), vector(p),
+        return Solution(*compiled(core)(f, g, o, native(interp, INTERP_SIG, "interp"), float(t0), vector(y0), vector(t_eval), bool(land), vector(p),
                               state_vector(z), float(rtol), vector(atol), float(h0), float(hmax),
                               int(max_steps), int(n_events), int(max_log), int(event_samples)))
 

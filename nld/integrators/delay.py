@@ -70,6 +70,7 @@ from nld.integrators.core import (BETA, EVENTS_SIG, FACC1, FACC2, ON_EVENT_SIG, 
                                   next_step, no_events, no_on_event, pi_control, pi_start,
                                   retake_finite, rms_error, running, state_vector, step_cap,
                                   vector, write_outputs)
+from nld.integrators.aot import compiled
 from nld.integrators.ownership import borrowed, keep_alive
 from nld.integrators.dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62,
                                     A63, A64, A65, A71, A73, A74, A75, A76, C2, C3, C4, C5,
@@ -744,7 +745,7 @@ def dde(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
     o = native(no_on_event if on_event is None else on_event, ON_EVENT_SIG, "on_event")
     c = native(no_coupling if coupling is None else coupling, COUPLING_SIG, "coupling")
     c3 = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    out = dde_core(f, g, o, c, float(t0), y0, vector(t_eval), bool(land), vector(p),
+    out = compiled(dde_core)(f, g, o, c, float(t0), y0, vector(t_eval), bool(land), vector(p),
                    state_vector(z), float(rtol), vector(atol), float(h0), float(hmax),
                    int(max_steps), int(n_events), int(max_log), int(event_samples),
                    law.delays, law.signals, law.memories, law.gd, law.gy, law.u0, law.u_max,

@@ -50,6 +50,7 @@ from .dopri5 import (A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62,
 from .core import (EVENTS_SIG, INTERP_SIG, JVP_SIG, ON_EVENT_JVP_SIG, ON_EVENT_SIG, RHS_SIG, native,
                    no_events, no_on_event, state_vector, vector)
 from .events import EVENT_SAMPLES, ROOT_RTOL, locate_earliest, set_unknown_signs
+from .aot import compiled
 from .ownership import borrowed, keep_alive
 GRAZE_RTOL = 1e-12         # |gdot| below this fraction of its terms' size: grazing
 
@@ -523,7 +524,7 @@ def dopri5_tangent(rhs, rhs_jvp, events, events_jvp, on_event, on_event_jvp, t0,
     one period started from the identity is the monodromy matrix (``nld.systems.derived``).
     diag may carry the per-event block of ``crossing_diag``.
     Returns (status, t_reached, y, n_marks_done, stats, h_next)."""
-    return dopri5_tangent_core(
+    return compiled(dopri5_tangent_core)(
         native(rhs, RHS_SIG, "rhs"), native(rhs_jvp, JVP_SIG, "rhs_jvp"),
         native(no_events if events is None else events, EVENTS_SIG, "events"),
         native(no_events_jvp if events_jvp is None else events_jvp, JVP_SIG, "events_jvp"),
