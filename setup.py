@@ -10,7 +10,7 @@ platform), the install goes on and nld compiles the cores on first use, as befor
 """
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import os
 import sys
 import time
@@ -23,18 +23,14 @@ from setuptools.command.build_py import build_py
 ROOT = Path(__file__).resolve().parent
 
 
-def _aot_module():
-    """nld/integrators/aot.py of this source tree, imported without running nld/__init__.py
-    (the build environment has numpy and numba only)."""
+def _aot_build():
+    """nld.integrators.aot_build of this source tree, imported without running nld/__init__.py
+    (the build environment has numpy and numba only; nld.integrators needs no more)."""
     if "nld" not in sys.modules:
         pkg = types.ModuleType("nld")
         pkg.__path__ = [str(ROOT / "nld")]
         sys.modules["nld"] = pkg
-    spec = importlib.util.spec_from_file_location("nld.integrators.aot",
-                                                  ROOT / "nld" / "integrators" / "aot.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return importlib.import_module("nld.integrators.aot_build")
 
 
 class build_py_with_cores(build_py):
@@ -50,7 +46,7 @@ class build_py_with_cores(build_py):
             out = Path(self.build_lib) / "nld" / "integrators"
         t = time.perf_counter()
         try:
-            paths = _aot_module().build(out)
+            paths = _aot_build().build(out)
         except Exception as e:          # never fail an install over it: the JIT stands in
             print(f"nld: the ahead-of-time build of the integrators failed ({e}); nld will "
                   f"compile them on first use instead", file=sys.stderr)

@@ -6,12 +6,15 @@
 Each command runs in a new process, three times, with the caches set up by this script:
 
 * **cold**: empty kernel cache (``NLD_CACHE_DIR``) and empty numba cache (``NUMBA_CACHE_DIR``):
-  a new machine; everything is compiled, the integrators included;
+  a new machine just after ``pip install`` (which built the integrator cores ahead of time where
+  it could, nld/integrators/aot.py); everything else is compiled;
 * **new scene**: the integrators already compiled (numba cache kept from a run of *another*
   scene, ``nld simulate four_bar --revs 0.1`` and ``nld lyapunov four_bar --revs 2``), the kernel
   cache empty: what every new scene structure, law combination or user system costs once the
   integrators have been compiled on the machine;
-* **warm**: both caches filled by the cold run.
+* **warm**: both caches filled by the cold run;
+* **cold, JIT**: as cold, with ``NLD_AOT=0``: the integrator cores built at install are not used,
+  numba compiles them (a machine where the install-time build could not run).
 
 Wall-clock seconds of the whole process (interpreter start, imports, compilation, the run).
 Run nothing else on the machine meanwhile. The caches are temporary folders, deleted at the end.
@@ -68,8 +71,9 @@ WARMERS = [["-c", "import sys; from nld.cli import main; sys.exit(main())", "sim
            ["-c", "import sys; from nld.cli import main; sys.exit(main())", "lyapunov", "four_bar", "--revs", "2"]]
 
 
-def run(argv, kernels, numba_cache, tmp):
+def run(argv, kernels, numba_cache, tmp, aot=True):
     env = dict(os.environ)
+    env["NLD_AOT"] = "1" if aot else "0"
     env["NLD_CACHE_DIR"] = str(kernels)
     env["NUMBA_CACHE_DIR"] = str(numba_cache)
     env.pop("NLD_QUIET", None)
@@ -108,13 +112,18 @@ def main(argv=None) -> int:
             nn = base / f"{name}-numba"
             shutil.copytree(warm_numba, nn)
             new, _ = run(cmd, nk / "k", nn, nk)
+            dj = base / f"{name}-jit"
+            dj.mkdir()
+            cold_jit, _ = run(cmd, dj / "k", dj / "n", dj, aot=False)
             met = "" if target is None else (" met" if cold <= target else " missed")
             rows.append(f"| {LABELS[name]} | {cold:.1f} | {'' if target is None else f'<= {target:g}'}{met} "
-                        f"| {new:.1f} | {warm:.1f} | {line[:90]} |")
+                        f"| {new:.1f} | {warm:.1f} | {cold_jit:.1f} | {line[:90]} |")
             print(rows[-1], flush=True)
     finally:
         shutil.rmtree(base, ignore_errors=True)
     load = " ".join(f"{v:.2f}" for v in os.getloadavg())
+    from nld.integrators import aot
+    built = aot.why_not() or "present and current"
     head = [
         "# Cold, new-scene and warm wall times (issue 23)",
         "",
@@ -123,11 +132,14 @@ def main(argv=None) -> int:
         f"{platform.python_version()}; {time.time() - t_all:.0f} s; load average at the end {load}.",
         "",
         "Seconds of wall time of the whole process. cold: empty kernel and numba caches (a new "
-        "machine: the integrators are compiled too); new scene: integrators compiled before by "
-        "another scene, kernel cache empty; warm: both caches filled.",
+        "machine after the install); new scene: integrators compiled before by "
+        "another scene, kernel cache empty; warm: both caches filled. The integrator cores built "
+        f"at install (nld/integrators/aot.py): {built}; the cold, new-scene and warm columns use "
+        "them; 'cold, JIT': empty caches with NLD_AOT=0 (numba compiles the cores too, what a "
+        "machine without the install-time build pays once).",
         "",
-        "| command | cold (s) | target | new scene (s) | warm (s) | last line of output |",
-        "|---|---|---|---|---|---|",
+        "| command | cold (s) | target | new scene (s) | warm (s) | cold, JIT (s) | last line of output |",
+        "|---|---|---|---|---|---|---|",
     ]
     write_table(a.out, head, rows)
     return 0

@@ -1,5 +1,8 @@
 """The integrators are compiled once per machine, not once per scene (issue 23; nld.integrators.core).
 
+These tests check numba's JIT path (``NLD_AOT=0``): the one a machine uses where the
+install-time build of the cores (nld/integrators/aot.py, tests/test_aot.py) is absent or stale.
+
 * A scene of another topology runs on the DOPRI5 already compiled: numba compiles no integrator
   for it (counted with numba's compile events) and DOPRI5 keeps one specialisation.
 * The compiled-once build (the scene's functions passed as first-class function pointers) and the
@@ -44,7 +47,8 @@ def _run(system, revs=0.3):
                   system.n_events, 10_000)
 
 
-def test_a_scene_of_another_topology_compiles_no_integrator():
+def test_a_scene_of_another_topology_compiles_no_integrator(monkeypatch):
+    monkeypatch.setenv("NLD_AOT", "0")
     a = SceneSystem("slider_crank")
     _run(a)                                     # DOPRI5 is compiled (or loaded) here, once
     b = SceneSystem("four_bar")                 # another topology: another kernel
@@ -61,6 +65,8 @@ def test_a_scene_of_another_topology_compiles_no_integrator():
 
 
 def _indirect_equals_inlined(overrides):
+    # the front's build (the install-time one where present and current, else the JIT's) against
+    # the inlined twin; the install-time build against the JIT: tests/test_aot.py
     s = SceneSystem("slider_crank", overrides)
     m = s.kernel.module
     t_eval = np.linspace(0.0, 0.5 * s.period, 60)

@@ -420,6 +420,7 @@ def test_integrator_compiled_once_per_machine(tmp_path):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env["PYTHONPATH"] = os.pathsep.join([root, env.get("PYTHONPATH", "")])
     env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba-cache")
+    env["NLD_AOT"] = "0"            # numba's JIT path (the install-time build: tests/test_aot.py)
     got = []
     for which in ("a", "b"):
         r = subprocess.run([sys.executable, "model_mod.py", which], cwd=tmp_path, env=env,

@@ -57,7 +57,7 @@ def test_scenes_of_the_same_structure_share_one_kernel():
     assert c.source_path != a.source_path
 
 
-def test_one_compiled_integrator_per_kernel_whatever_the_caller_passes():
+def test_one_compiled_integrator_per_kernel_whatever_the_caller_passes(monkeypatch):
     """A read-only t_eval (a pandas column, a broadcast) and a call without event_samples used to
     compile the whole integrator again; the integrator's Python front fixes the types, so every
     caller below uses one specialisation of the shared DOPRI5 (and observe_all one), and the
@@ -65,6 +65,7 @@ def test_one_compiled_integrator_per_kernel_whatever_the_caller_passes():
     from nld.integrators.dopri5 import dopri5_core
     import numpy as np
     from nld.run.simulate import simulate
+    monkeypatch.setenv("NLD_AOT", "0")     # numba's JIT path (the built cores: test_aot.py)
     from nld.systems.core import SceneSystem, advance
     kern = compile_scene(load_scene("slider_crank"))
     t = np.linspace(0.0, 2e-3, 5)

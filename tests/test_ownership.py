@@ -48,10 +48,13 @@ def _net_allocations():
     return s.alloc - s.free, s.mi_alloc - s.mi_free
 
 
-def test_runs_free_every_work_array_once():
+def test_runs_free_every_work_array_once(monkeypatch):
     """After a trajectory and a tangent run (results dropped), numba's allocator has freed
     exactly what the runs allocated: the owners of the borrowed views are released (no leak)
-    and none twice (the counts would go below the start)."""
+    and none twice (the counts would go below the start). On numba's JIT build (the cores built
+    at install carry their own allocator, whose counts are not exported; they are compiled from
+    the same code)."""
+    monkeypatch.setenv("NLD_AOT", "0")
     S = SceneSystem("slider_crank")
     m = S.kernel.module
     te = np.linspace(0.0, S.period, 20)

@@ -1,0 +1,140 @@
+"""The integrator cores built at install (nld/integrators/aot.py).
+
+* Where a C compiler is present, the install built them and they are current (a fresh clone
+  installed by the README's command: this is CI's case).
+* The fronts call the built cores: a run compiles no integrator with numba.
+* Built and JIT cores give the same trajectory, event log and step counts, bit for bit
+  (DOPRI5 on a scene with contacts in the default run; DOP853, Rodas4, the tangent DOPRI5 and
+  the delay integrator as slow tests: each JIT build costs 10-15 s of compilation).
+* A stamp that does not match the sources (an edited integrator) selects the JIT.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from nld.integrators import aot
+from nld.integrators.dopri5 import dopri5_core
+from nld.systems.core import SceneSystem
+
+_COMPILER = shutil.which("cc") or shutil.which("gcc")
+needs_build = pytest.mark.skipif(aot.why_not() != "", reason=f"cores not built: {aot.why_not()}")
+
+
+@pytest.mark.skipif(_COMPILER is None, reason="no C compiler: the install cannot build the cores")
+def test_the_install_built_current_cores():
+    assert aot.why_not() == "", (
+        f"{aot.why_not()}: rebuild with `python -m nld.integrators.aot_build` (or reinstall)")
+    for name in aot.CORES:
+        assert aot.built(name) is not None, name
+
+
+@needs_build
+def test_the_fronts_call_the_built_cores(monkeypatch):
+    monkeypatch.delenv("NLD_AOT", raising=False)
+    assert aot.compiled(dopri5_core) is aot.built("dopri5_core")
+    before = len(dopri5_core.signatures)
+    s = SceneSystem("four_bar")
+    r = s.kernel.module.solve(0.0, s.y0.copy(), np.linspace(0, 0.1 * s.period, 5), False, s.p,
+                              s.z0.copy(), 1e-7, s.tolerance(1e-7), 0.0, s.hmax, 10**6,
+                              s.n_events, 100)
+    assert int(r.status) == 0
+    assert len(dopri5_core.signatures) == before       # numba compiled no DOPRI5
+    monkeypatch.setenv("NLD_AOT", "0")
+    assert aot.compiled(dopri5_core) is dopri5_core
+
+
+def _solve_both(monkeypatch, run):
+    monkeypatch.setenv("NLD_AOT", "1")
+    a = run()
+    monkeypatch.setenv("NLD_AOT", "0")
+    b = run()
+    return a, b
+
+
+def _same_solution(a, b):
+    assert int(a.status) == int(b.status) == 0
+    assert np.array_equal(a.Y, b.Y, equal_nan=True)
+    assert np.array_equal(a.Z, b.Z)
+    assert a.n_ev == b.n_ev
+    assert np.array_equal(a.ev_t[:a.n_ev], b.ev_t[:b.n_ev])
+    assert np.array_equal(a.ev_k[:a.n_ev], b.ev_k[:b.n_ev])
+    assert np.array_equal(a.stats, b.stats)
+
+
+def _scene_run(method):
+    from nld.integrators import dop853, dopri5, rodas
+    fn = {"dopri5": dopri5, "dop853": dop853, "rodas": rodas}[method]
+    s = SceneSystem("slider_crank")
+    m = s.kernel.module
+    t_eval = np.linspace(0.0, 0.5 * s.period, 60)
+
+    def run():
+        return fn(m.rhs, m.events, m.on_event, 0.0, s.y0.copy(), t_eval, False, s.p,
+                  s.z0.copy(), 1e-8, s.tolerance(1e-8), 0.0, float(s.hmax), 10**7, s.n_events,
+                  10_000)
+    return run
+
+
+@needs_build
+def test_built_and_jit_dopri5_agree_bit_for_bit(monkeypatch):
+    a, b = _solve_both(monkeypatch, _scene_run("dopri5"))
+    assert a.n_ev > 0                                   # the run has contact events
+    _same_solution(a, b)
+
+
+@pytest.mark.slow
+@needs_build
+@pytest.mark.parametrize("method", ["dop853", "rodas"])
+def test_built_and_jit_agree_bit_for_bit_other_methods(monkeypatch, method):
+    _same_solution(*_solve_both(monkeypatch, _scene_run(method)))
+
+
+@pytest.mark.slow
+@needs_build
+def test_built_and_jit_tangent_and_delay_agree_bit_for_bit(monkeypatch):
+    from nld.integrators.delay import DelayLaw, dde
+    from nld.systems.tangent import run_tangent
+    s = SceneSystem("slider_crank")
+    n, nz = s.y0.size, s.z0.size
+
+    def tangent():
+        W = np.eye(2, n)
+        return run_tangent(s, s.y0.copy(), s.z0.copy(), W, np.zeros((2, nz)), 0.0,
+                           np.array([0.25 * s.period, 0.5 * s.period]), 1e-9), W
+    (ta, Wa), (tb, Wb) = _solve_both(monkeypatch, tangent)
+    assert np.array_equal(Wa, Wb)
+    assert np.array_equal(np.asarray(ta.y), np.asarray(tb.y))
+
+    law = DelayLaw.make(2, 0, [0.7], [0], kinds=[0], targets=[1], gd=[[0.3]], gy=[[-0.3, 0.0]])
+
+    from numba import njit
+
+    @njit
+    def rhs(t, y, p, z, dy):
+        dy[0] = y[1]
+        dy[1] = -0.1 * y[1] - y[0] - y[0] ** 3 + 0.3 * np.cos(1.2 * t)
+
+    def delayed():
+        return dde(rhs, None, None, 0.0, np.array([1.0, 0.0]), np.linspace(0, 20, 41), False,
+                   np.zeros(0), np.zeros(0), 1e-8, np.full(2, 1e-10), 0.0, 0.0, 10**6, 0, 1, law)
+    da, db = _solve_both(monkeypatch, delayed)
+    assert int(da.status) == int(db.status) == 0
+    assert np.array_equal(da.Y, db.Y) and np.array_equal(da.U, db.U)
+
+
+def test_a_stale_stamp_selects_the_jit(monkeypatch, tmp_path):
+    stale = tmp_path / "_aot.json"
+    stale.write_text(json.dumps(dict(aot.stamp(), sources="0" * 64)))
+    monkeypatch.setattr(aot, "STAMP", stale)
+    monkeypatch.setattr(aot, "_STATE", {})
+    monkeypatch.delenv("NLD_AOT", raising=False)
+    assert aot.why_not() == "stale: built for other sources"
+    assert aot.compiled(dopri5_core) is dopri5_core
+    monkeypatch.setattr(aot, "STAMP", tmp_path / "missing.json")
+    monkeypatch.setattr(aot, "_STATE", {})
+    assert aot.why_not().startswith("not built")
+    assert aot.compiled(dopri5_core) is dopri5_core
