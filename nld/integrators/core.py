@@ -14,7 +14,9 @@ core". The helpers on scalars are ordinary compiled functions, cached on their o
 every integrator. Those that take several arrays and run every step (the stages, the event
 location, output writing) are inlined by numba (``inline='always'``): called out of line, the
 reference counting of their array arguments made a step 15 % slower (measured:
-benchmarks/bench_builds.py); inlining costs compile time once per machine. The small ones that
+benchmarks/bench_builds.py, before the step loops worked on borrowed views,
+``nld.integrators.ownership``, which made that counting cheap); inlining costs compile time once per
+machine, at install where the cores are built ahead of time (``nld.integrators.aot``). The small ones that
 run once per run (``new_run``, ``work_vectors``, ``solution``, ``pi_start``) are inlined too, so
 that they add no compilation of their own. A new per-step helper must be measured: inlined, one
 taking arrays (a swap of two arrays, the end-of-step event check) made a DOPRI5 step 10 % slower
@@ -31,7 +33,9 @@ so exactly one specialisation per integrator exists. ``inlined(dopri5_core)`` is
 twin that, called with plain numba dispatchers, compiles the integrator with the functions
 inlined (the old build, once per scene and process): kept for the side-by-side measurement in
 benchmarks/bench_indirection.py and the round-off test in tests/test_compile_once.py.
-docs/performance.md, "Compiled once".
+docs/performance.md, "Compiled once". The fronts call the cores through
+``nld.integrators.aot.compiled``: the build made at install (numba.pycc) where it is current,
+numba's dispatcher (this once-per-machine JIT) otherwise; docs/performance.md, "Built at install".
 
 Step-size control: Hairer, Norsett & Wanner, *Solving ODEs I*, 2nd ed. 1993, sec. II.4 (the
 initial step HINIT, the error norm) and the Lund-stabilised PI controller of DOPRI5/DOP853
