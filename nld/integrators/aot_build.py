@@ -148,9 +148,15 @@ def build(output_dir: str | Path = HERE, jobs: int | None = None, verbose: bool 
             if verbose and text:
                 print(text)
             if proc.returncode != 0:
-                failed.append(f"{name}: {' | '.join(text.strip().splitlines()[-3:])}")
+                lines = [ln for ln in text.strip().splitlines() if "Error" in ln] or \
+                    text.strip().splitlines()[-1:] or ["no output"]
+                failed.append((name, lines[-1][:200]))
         if failed:
-            raise RuntimeError("ahead-of-time build failed: " + "; ".join(failed))
+            reasons = {}
+            for name, why in failed:
+                reasons.setdefault(why, []).append(name)
+            raise RuntimeError("; ".join(f"{', '.join(names)}: {why}"
+                                         for why, names in reasons.items()))
     paths = sorted(out.glob(PREFIX + "*"))
     stamp_file.write_text(json.dumps(stamp(), indent=1) + "\n")
     return paths
