@@ -138,3 +138,66 @@ def test_a_stale_stamp_selects_the_jit(monkeypatch, tmp_path):
     monkeypatch.setattr(aot, "_STATE", {})
     assert aot.why_not().startswith("not built")
     assert aot.compiled(dopri5_core) is dopri5_core
+
+
+# ---- the build's bookkeeping, with stand-in children (the real build takes ~40 s of CPU)
+
+def _previous_build(out):
+    (out / "_aot.json").write_text("previous")
+    (out / "_aot_dopri5_core.so").write_text("previous")
+
+
+def test_a_failed_build_keeps_the_previous_one(monkeypatch, tmp_path):
+    from nld.integrators import aot_build
+    _previous_build(tmp_path)
+    monkeypatch.setattr(aot_build, "_CHILD", "import sys; print('RuntimeError: no compiler'); "
+                                             "sys.exit(1)")
+    with pytest.raises(RuntimeError) as e:
+        aot_build.build(tmp_path, jobs=2)
+    assert str(e.value) == ("dopri5_core, dop853_core, rodas_core, dopri5_tangent_core, "
+                            "dde_core: RuntimeError: no compiler")
+    assert (tmp_path / "_aot.json").read_text() == "previous"
+    assert (tmp_path / "_aot_dopri5_core.so").read_text() == "previous"
+
+
+def test_a_build_moves_its_modules_in_and_writes_the_stamp_last(monkeypatch, tmp_path):
+    from nld.integrators import aot_build
+    _previous_build(tmp_path)
+    monkeypatch.setattr(aot_build, "_CHILD", (
+        "import sys, pathlib; root, name, out = sys.argv[1:4]; p = pathlib.Path(out); "
+        "p.mkdir(parents=True, exist_ok=True); (p / ('_aot_' + name + '.so')).write_text(name)"))
+    seen = []
+    paths = aot_build.build(tmp_path, jobs=2, progress=lambda name, s: seen.append(name))
+    assert sorted(seen) == sorted(aot.CORES)
+    assert sorted(p.name for p in paths) == sorted(f"_aot_{c}.so" for c in aot.CORES)
+    assert (tmp_path / "_aot_dopri5_core.so").read_text() == "dopri5_core"
+    assert json.loads((tmp_path / "_aot.json").read_text()) == aot.stamp()
+
+
+def test_an_interrupted_build_leaves_no_child_and_the_previous_build(monkeypatch, tmp_path):
+    import os
+    import time
+    from nld.integrators import aot_build
+    out = tmp_path / "out"
+    out.mkdir()
+    _previous_build(out)
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    monkeypatch.setattr(aot_build, "_CHILD", (
+        "import os, sys, time, pathlib; root, name, out = sys.argv[1:4]; "
+        f"(pathlib.Path({str(pids)!r}) / name).write_text(str(os.getpid())); "
+        "time.sleep(0 if name == 'dopri5_core' else 60)"))
+
+    def stop(name, seconds):
+        deadline = time.time() + 20          # the second child has started and said who it is
+        while not (pids / "dop853_core").exists() and time.time() < deadline:
+            time.sleep(0.05)
+        raise KeyboardInterrupt
+    t = time.time()
+    with pytest.raises(KeyboardInterrupt):
+        aot_build.build(out, jobs=2, progress=stop)
+    assert time.time() - t < 30
+    pid = int((pids / "dop853_core").read_text())
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)                      # killed and reaped
+    assert (out / "_aot.json").read_text() == "previous"

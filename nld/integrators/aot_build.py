@@ -117,59 +117,97 @@ build_one(name, out)
 """
 
 
-def build(output_dir: str | Path = HERE, jobs: int | None = None, verbose: bool = False) -> list:
+def build(output_dir: str | Path = HERE, jobs: int | None = None, verbose: bool = False,
+          progress=None) -> list:
     """Build every core into ``output_dir``, each in its own process (``jobs`` at a time,
-    default the CPU count), then write the stamp; returns the modules' paths. The stamp is
-    removed first and written last: an interrupted or failed build is never used. Raises
-    RuntimeError naming the core whose build failed (with its last output lines)."""
+    default the CPU count); returns the modules' paths. The modules are built in a temporary
+    folder and moved in place, with the stamp written last, only when all five are built: a
+    failed or interrupted build leaves the previous modules and stamp as they were (and no child
+    process: they are killed on the way out). ``progress(name, seconds)`` is called as each core
+    is done. Raises RuntimeError naming each reason of failure with the cores it stopped."""
     import subprocess
     import tempfile
+    import time
 
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    stamp_file = out / STAMP.name
-    stamp_file.unlink(missing_ok=True)
     root = str(HERE.parent.parent)
     jobs = max(1, jobs or os.cpu_count() or 1)
-    with tempfile.TemporaryDirectory(prefix="nld-aot-") as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONWARNINGS="ignore")
-        pending = list(CORES)
-        running: list = []
-        failed = []
-        while pending or running:
-            while pending and len(running) < jobs:
-                name = pending.pop(0)
-                proc = subprocess.Popen([sys.executable, "-c", _CHILD, root, name, str(out)],
-                                        env=env, stdout=subprocess.PIPE,
-                                        stderr=subprocess.STDOUT, text=True)
-                running.append((name, proc))
-            name, proc = running.pop(0)
-            text, _ = proc.communicate()
-            if verbose and text:
-                print(text)
-            if proc.returncode != 0:
-                lines = [ln for ln in text.strip().splitlines() if "Error" in ln] or \
-                    text.strip().splitlines()[-1:] or ["no output"]
-                failed.append((name, lines[-1][:200]))
-        if failed:
-            reasons = {}
-            for name, why in failed:
-                reasons.setdefault(why, []).append(name)
-            raise RuntimeError("; ".join(f"{', '.join(names)}: {why}"
-                                         for why, names in reasons.items()))
-    paths = sorted(out.glob(PREFIX + "*"))
-    stamp_file.write_text(json.dumps(stamp(), indent=1) + "\n")
-    return paths
+    t0 = time.perf_counter()
+    running: list = []
+    try:
+        with tempfile.TemporaryDirectory(prefix="nld-aot-") as work:
+            cache, staged = Path(work) / "numba-cache", Path(work) / "modules"
+            env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONWARNINGS="ignore")
+            pending = list(CORES)
+            failed = []
+            while pending or running:
+                while pending and len(running) < jobs:
+                    name = pending.pop(0)
+                    proc = subprocess.Popen([sys.executable, "-c", _CHILD, root, name,
+                                             str(staged)], env=env, stdout=subprocess.PIPE,
+                                            stderr=subprocess.STDOUT, text=True)
+                    running.append((name, proc))
+                name, proc = running[0]
+                text, _ = proc.communicate()
+                running.pop(0)
+                if verbose and text:
+                    print(text)
+                if proc.returncode != 0:
+                    lines = [ln for ln in text.strip().splitlines() if "Error" in ln] or \
+                        text.strip().splitlines()[-1:] or ["no output"]
+                    failed.append((name, lines[-1][:200]))
+                elif progress is not None:
+                    progress(name, time.perf_counter() - t0)
+            if failed:
+                reasons: dict = {}
+                for name, why in failed:
+                    reasons.setdefault(why, []).append(name)
+                raise RuntimeError("; ".join(f"{', '.join(names)}: {why}"
+                                             for why, names in reasons.items()))
+            stamp_file = out / STAMP.name
+            stamp_file.unlink(missing_ok=True)
+            paths = []
+            for f in sorted(staged.glob(PREFIX + "*")):
+                os.replace(f, out / f.name)
+                paths.append(out / f.name)
+            stamp_file.write_text(json.dumps(stamp(), indent=1) + "\n")
+            return paths
+    finally:
+        for _, proc in running:
+            proc.kill()
+            proc.wait()
 
 
 def main(argv=None) -> int:
-    """``python -m nld.integrators.aot_build [DIR]``: build in place (or into DIR)."""
+    """``python -m nld.integrators.aot_build [DIR]``: build in place (or into DIR), a line per
+    core as it is done; Ctrl-C / SIGTERM stop it (exit 130 / 143) leaving the previous build."""
+    import signal
     import time
     argv = sys.argv[1:] if argv is None else argv
+
+    term = []
+
+    def on_term(signum, frame):
+        term.append(signum)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_term)
     t = time.perf_counter()
-    paths = build(argv[0] if argv else HERE)
-    print(f"built {len(paths)} modules in {time.perf_counter() - t:.1f} s: "
-          + ", ".join(p.name for p in paths))
+    done = []
+
+    def progress(name, seconds):
+        done.append(name)
+        print(f"built {name} ({len(done)}/{len(CORES)}, {seconds:.0f} s)", flush=True)
+    try:
+        paths = build(argv[0] if argv else HERE, progress=progress)
+    except KeyboardInterrupt:
+        print("nld: build interrupted; the previous build (if any) is kept", file=sys.stderr)
+        return 143 if term else 130
+    except RuntimeError as e:
+        print(f"nld: build failed: {e}", file=sys.stderr)
+        return 1
+    print(f"built {len(paths)} modules in {time.perf_counter() - t:.1f} s")
     return 0
 
 
