@@ -207,6 +207,9 @@ def main(argv=None) -> int:
     except RuntimeError as e:
         print(f"nld: build failed: {e}", file=sys.stderr)
         return 1
+    except OSError as e:
+        print(f"nld: output folder {argv[0] if argv else HERE}: {e.strerror or e}", file=sys.stderr)
+        return 2
     print(f"built {len(paths)} modules in {time.perf_counter() - t:.1f} s")
     return 0
 
