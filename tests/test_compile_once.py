@@ -107,11 +107,14 @@ def test_a_plain_python_function_is_refused_with_the_signature():
         native(on_event, ON_EVENT_SIG, "on_event")
 
 
-def test_an_exception_in_a_scene_function_propagates():
+@pytest.mark.parametrize("aot", ["1", "0"])
+def test_an_exception_in_a_scene_function_propagates(monkeypatch, aot):
     """numba's C wrapper of a first-class function drops exceptions; nld passes the function's
     own entry point so that an error inside a model function (a singular matrix) is raised, as
-    it was when the functions were inlined (nld.integrators.core._install_jit_address_hook)."""
+    it was when the functions were inlined (nld.integrators.core._install_jit_address_hook);
+    through the core built at install (where present) and through the JIT's."""
     from numba import njit
+    monkeypatch.setenv("NLD_AOT", aot)
 
     from nld.integrators.core import JIT_ADDRESS_HOOK
 
