@@ -100,7 +100,9 @@ def run_table(runs: dict, columns: dict):
 def merge_checks(pts, checked=None):
     """``pts`` (one row per sweep point: ``value``, ``verdict_main``) with the check's columns
     ``lambda_check``, ``lambda_check_unc``, ``verdict_check`` (blank where the point was not run
-    again) and the final ``verdict`` (:func:`checked_verdict`). checked: the same kind of table for
+    again) and the final ``verdict`` (:func:`checked_verdict`: the same word and the two
+    exponents per revolution within CHECK_FACTOR x their combined uncertainty; pts needs
+    ``lambda_per_rev`` and ``lambda_unc_per_rev``). checked: the same kind of table for
     the points run again (``value``, ``lambda_per_rev``, ``lambda_unc_per_rev``, ``verdict_main``,
     ``status``), or None."""
     import numpy as np
@@ -118,7 +120,9 @@ def merge_checks(pts, checked=None):
     out["lambda_check"] = lam
     out["lambda_check_unc"] = unc
     out["verdict_check"] = ver
-    out["verdict"] = [checked_verdict(m, c or None) for m, c in zip(out["verdict_main"], ver)]
+    out["verdict"] = [checked_verdict(m, c or None, lam=lm, unc=um, lam_check=lc, unc_check=uc)
+                      for m, c, lm, um, lc, uc in zip(out["verdict_main"], ver, out["lambda_per_rev"],
+                                                      out["lambda_unc_per_rev"], lam, unc)]
     return out
 
 

@@ -959,7 +959,8 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
         rep.table("Summary of the sweeps", shown, col_units={"max λ1": "1/rev", "min λ1": "1/rev"},
                   notes=["Verdicts are checked: every point not called regular is run again from the assembly "
                          f"at {st['check_rtol_factor']:g}x both tolerances with λ1 over {st['check_span']}x the "
-                         "span, and keeps its verdict only if the two agree ('not established' otherwise, "
+                         "span, and keeps its verdict only if the two give the same verdict and exponents within 3x "
+                         "their combined uncertainty ('not established' otherwise, "
                          "which the attractor census then replaces: page 'Coexisting motions'; "
                          "columns verdict_main, lambda_check, verdict_check of the points file). "
                          "Per sweep: points by verdict (chaotic: λ1 − uncertainty > 0 over a section of at least "

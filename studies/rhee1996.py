@@ -114,7 +114,8 @@ def check_text(st) -> str:
             f"case's exponent is computed again from the same state at rtol {st['rtol_check']:g} over "
             f"{st['check_span']}x the span, and every sweep point not called regular is run again from "
             f"the assembly at rtol {st['rtol_check']:g} with {st['check_span']}x the averaging span; "
-            "where the two verdicts differ the point is 'not established' (nld.study.checked_verdict). "
+            "where the two verdicts differ, or the two exponents by more than 3x their combined "
+            "uncertainty, the point is 'not established' (nld.study.checked_verdict). "
             "A case's verdict must also agree with that of the sweep point of the same parameters (run "
             "from the assembly: another history of the same system).")
 
@@ -206,14 +207,16 @@ def check_case(name, y, z, st, period):
 
 def add_case_checks(res, checks, st):
     """Put each case's check into its row: lambda_check, lambda_check_unc, verdict_check and the
-    final verdict (nld.study.checked_verdict of the main and the check verdicts)."""
+    final verdict (nld.study.checked_verdict of the main and the check verdicts and exponents)."""
     from nld.study import checked_verdict
     for name, chk in zip(CASES, checks):
         row = res[name]["row"]
         row["lambda_check"] = chk["lambda_check"]
         row["lambda_check_unc"] = chk["lambda_check_unc"]
         row["verdict_check"] = verdict(chk["lambda_check"], chk["lambda_check_unc"], row["section_points"])
-        row["verdict"] = checked_verdict(row["verdict_main"], row["verdict_check"])
+        row["verdict"] = checked_verdict(row["verdict_main"], row["verdict_check"],
+                                         lam=row["lambda_per_rev"], unc=row["lambda_unc_per_rev"],
+                                         lam_check=chk["lambda_check"], unc_check=chk["lambda_check_unc"])
         res[name]["check_settings"] = chk["check_settings"]
 
 

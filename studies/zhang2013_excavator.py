@@ -92,7 +92,8 @@ OMEGA1 = 15.6          # rad/s, the paper's crank speed (the scene's driver.spee
 # stick <-> slip chatter at rtol 1e-7 was fixed by a51d484 (tests/test_hybrid.py).
 # rtol_check, check_span: the exponent of a point called chaotic, regular or short is computed again
 # from the same section end (the same motion) at rtol_check over check_span x the averaging span;
-# its verdict holds only if both agree (nld.study.checked_verdict); uncertain points are not run
+# its verdict holds only if both give the same word and exponents within 3x their combined
+# uncertainty (nld.study.checked_verdict); uncertain points are not run
 # again. Issue 23 (10-minute main job): lambda1 over 100 revolutions at rtol 1e-8, the check at 1e-9
 # over 200, both with the state-only error control (tangent_err=False); before: 200 and 400
 # revolutions with the tangent vectors in the error control and the check's section run again at
@@ -370,7 +371,8 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
         from nld.study import checked_verdict
         row["lambda_check_per_rev"], row["lambda_check_unc_per_rev"], chk_msg = check
         row["verdict_check"] = verdict("failed" if chk_msg else status, check[0], check[1], n_pts)
-        row["verdict"] = checked_verdict(row["verdict_main"], row["verdict_check"])
+        row["verdict"] = checked_verdict(row["verdict_main"], row["verdict_check"], lam=per, unc=uper,
+                                         lam_check=check[0], unc_check=check[1])
         if chk_msg:
             row["message"] = chk_msg
     return tab, row
@@ -1200,7 +1202,8 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
                          + (f"verdict 2: for a point called chaotic, regular or short, λ1 again from the same "
                             f"section end at rtol {an['rtol_check']:g} over {an['check_span']:g}x the span (λ1 check; "
                             "uncertain points are not run again, blank); verdict: verdict 1 where verdict 2 "
-                            "agrees, else 'not established'. " if an.get("rtol_check") else
+                            "is the same and the two exponents agree within 3x their combined uncertainty, "
+                            "else 'not established'. " if an.get("rtol_check") else
                             "verdict: verdict 1, not checked at another tolerance in this mode. ")
                          + f"{estimator_line(pts, period)}. Stored in {STEM}_chaos.csv (lambda in 1/s as well); the "
                          f"section points in {STEM}_sections.parquet."],

@@ -106,3 +106,19 @@ def test_shared_helpers(monkeypatch):
     assert timing("1.0 s") == NOT_SHOWN
     assert "wall time" not in run_table(runs, {}).columns
     assert list(drop_timing(df, "wall time").columns) == ["case", "success", "accepted steps", "events"]
+
+
+def test_merge_checks_needs_the_same_word_and_agreeing_exponents():
+    """The verdict check of the studies' sweeps is the one rule (nld.analysis.verdict): the
+    same word *and* exponents within CHECK_FACTOR x their combined uncertainty."""
+    import pandas as pd
+
+    from nld.study import merge_checks
+    pts = pd.DataFrame({"value": [1.0, 2.0, 3.0], "verdict_main": ["chaotic"] * 3,
+                        "lambda_per_rev": [3.0, 3.0, 3.0], "lambda_unc_per_rev": [0.1] * 3})
+    chk = pd.DataFrame({"value": [1.0, 2.0, 3.0], "verdict_main": ["chaotic", "chaotic", "regular"],
+                        "lambda_per_rev": [3.4, 9.0, -1.0], "lambda_unc_per_rev": [0.1] * 3,
+                        "status": ["ok"] * 3})
+    out = merge_checks(pts, chk)
+    assert list(out["verdict"]) == ["chaotic", "not established", "not established"]
+    assert list(out["verdict_check"]) == ["chaotic", "chaotic", "regular"]
