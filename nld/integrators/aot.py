@@ -1,14 +1,13 @@
-"""The integrator cores built ahead of time, at install, into an extension module.
+"""The integrator cores built ahead of time, at install, into extension modules.
 
 numba compiles an integrator core once per machine (``nld.integrators.core``: the scene's
 functions are first-class function arguments), but that once costs a new user 8-20 s before the
 first result (docs/performance.md, "Cold, new scene, warm"). ``pip install`` therefore also builds
 the five cores -- ``dopri5_core``, ``dop853_core``, ``rodas_core``, ``dopri5_tangent_core`` and
 ``dde_core`` -- with ``numba.pycc`` into extension modules ``nld/integrators/_aot_<core>*.so``
-(setup.py calls :func:`build`; one module per core, each built in its own process: numba 0.68's
-pycc types a later core of the same module wrongly after an earlier one), for exactly the signatures the Python fronts call them with (recorded from the
-fronts themselves, ``aot_build.signatures``). At run time :func:`compiled` hands a front the built core
-when it is present and current, and numba's JIT dispatcher otherwise.
+(setup.py calls ``nld.integrators.aot_build.build``), for exactly the argument types the Python
+fronts call them with. At run time :func:`compiled` hands a front the built core when it is
+present and current, and numba's JIT dispatcher otherwise.
 
 *Current* means: built from the same sources of ``nld/integrators`` (and ``nld/settings.py``,
 ``nld/errors.py``), by the same numba and numpy versions as the running ones; a stamp file
