@@ -201,3 +201,30 @@ def test_an_interrupted_build_leaves_no_child_and_the_previous_build(monkeypatch
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)                      # killed and reaped
     assert (out / "_aot.json").read_text() == "previous"
+
+
+@needs_build
+def test_a_law_made_by_hand_with_other_dtypes_runs_as_the_checked_one(monkeypatch):
+    """The built core reads its arguments as the types it was built for (a wrong dtype is not
+    compiled anew as with the JIT, it is misread: it crashed the process); the delay front
+    coerces a DelayLaw made without DelayLaw.make."""
+    import dataclasses
+
+    from numba import njit
+
+    from nld.integrators.delay import DelayLaw, dde
+
+    @njit
+    def rhs(t, y, p, z, dy):
+        dy[0] = y[1]
+        dy[1] = -y[0]
+    law = DelayLaw.make(2, 0, [0.7], [0], kinds=[0], targets=[1], gd=[[0.3]], gy=[[-0.3, 0.0]])
+    odd = dataclasses.replace(law, signals=law.signals.astype(np.int32),
+                              kinds=law.kinds.astype(np.int32), targets=law.targets.tolist(),
+                              gd=np.asfortranarray(law.gd))
+    monkeypatch.setenv("NLD_AOT", "1")
+    runs = [dde(rhs, None, None, 0.0, np.array([1.0, 0.0]), np.linspace(0, 5, 6), False,
+                np.zeros(0), np.zeros(0), 1e-8, np.full(2, 1e-10), 0.0, 0.0, 10**6, 0, 1, lw)
+            for lw in (law, odd)]
+    assert int(runs[0].status) == int(runs[1].status) == 0
+    assert np.array_equal(runs[0].Y, runs[1].Y)

@@ -744,13 +744,19 @@ def dde(rhs, events, on_event, t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax,
     g = native(no_events if events is None else events, EVENTS_SIG, "events")
     o = native(no_on_event if on_event is None else on_event, ON_EVENT_SIG, "on_event")
     c = native(no_coupling if coupling is None else coupling, COUPLING_SIG, "coupling")
-    c3 = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    # every array as the one compiled signature has it (a core built at install reads what it
+    # is given as that type: nld.integrators.aot); a law made by hand with other dtypes is coerced
+    m, nu = law.delays.size, law.u0.size
+    c3 = lambda a: np.ascontiguousarray(a, dtype=float).reshape(-1, 5, np.shape(a)[-1])  # noqa: E731
+    ints = lambda a: np.ascontiguousarray(a, dtype=np.int64).reshape(-1)  # noqa: E731
+    mat = lambda a, k: np.ascontiguousarray(a, dtype=float).reshape(nu, k)  # noqa: E731
     out = compiled(dde_core)(f, g, o, c, float(t0), y0, vector(t_eval), bool(land), vector(p),
                    state_vector(z), float(rtol), vector(atol), float(h0), float(hmax),
                    int(max_steps), int(n_events), int(max_log), int(event_samples),
-                   law.delays, law.signals, law.memories, law.gd, law.gy, law.u0, law.u_max,
-                   law.kinds, law.targets, float(t0 if t_break0 is None else t_break0), keep,
-                   c3(history.t0), c3(history.h), c3(history.t1), c3(history.cont),
+                   vector(law.delays), ints(law.signals), vector(law.memories), mat(law.gd, m),
+                   mat(law.gy, y0.size), vector(law.u0), vector(law.u_max), ints(law.kinds),
+                   ints(law.targets), float(t0 if t_break0 is None else t_break0), keep,
+                   vector(history.t0), vector(history.h), vector(history.t1), c3(history.cont),
                    c3(history.chan))
     return DelaySolution(*out[:12], History(*out[12:17]), float(out[17]))
 
