@@ -47,7 +47,7 @@ import sys
 import threading
 
 __all__ = ["deferred", "Deferral", "install", "ignore_in_worker", "in_main_thread", "received",
-           "SIGNALS", "end_pool"]
+           "SIGNALS", "end_pool", "called_from_compiled"]
 
 _NUMBA_DIR = None
 
@@ -80,9 +80,24 @@ def _numba_dir() -> str:
     return _NUMBA_DIR
 
 
+_CALLED_FROM_COMPILED: set = set()
+
+
+def called_from_compiled(fn):
+    """Mark the Python function ``fn`` as one that compiled code calls while it converts its
+    arguments or results (nld's unboxing hooks for first-class functions, the unpickler of the
+    cores built at install): a signal arriving inside it is deferred as one arriving in numba's
+    own Python code is (a ``KeyboardInterrupt`` raised there is not checked by the compiled
+    caller). Returns ``fn``."""
+    _CALLED_FROM_COMPILED.add(getattr(fn, "__code__", None))
+    return fn
+
+
 def _in_numba(frame) -> bool:
-    """The interrupted frame is numba's Python code (numba's boxing calls _numba_unpickle)."""
-    return frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_numba_dir())
+    """The interrupted frame is numba's Python code (numba's boxing calls _numba_unpickle) or a
+    function marked :func:`called_from_compiled`."""
+    return frame is not None and (frame.f_code in _CALLED_FROM_COMPILED or os.path.abspath(
+        frame.f_code.co_filename).startswith(_numba_dir()))
 
 
 class Deferral:

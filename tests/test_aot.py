@@ -228,3 +228,20 @@ def test_a_law_made_by_hand_with_other_dtypes_runs_as_the_checked_one(monkeypatc
             for lw in (law, odd)]
     assert int(runs[0].status) == int(runs[1].status) == 0
     assert np.array_equal(runs[0].Y, runs[1].Y)
+
+
+@needs_build
+def test_a_built_core_unpickles_its_signatures_once(monkeypatch):
+    """pycc's modules unpickle their first-class functions' signatures at every call (70 us a
+    call); nld hands them a memoising unpickler at import (nld.integrators.aot._MemoLoads): after
+    the first call no call unpickles again."""
+    monkeypatch.setenv("NLD_AOT", "1")
+    run = _scene_run("dopri5")
+    run()
+    memo = aot._STATE[("loads", "dopri5_core")]
+    assert len(memo.memo) > 0                    # the module unpickles through it
+    calls = []
+    real = aot._PICKLE_LOADS
+    monkeypatch.setattr(aot, "_PICKLE_LOADS", lambda *a, **k: calls.append(1) or real(*a, **k))
+    run()
+    assert calls == []

@@ -27,7 +27,10 @@ import hashlib
 import importlib
 import json
 import os
+import pickle
 from pathlib import Path
+
+from nld.interrupt import called_from_compiled
 
 HERE = Path(__file__).resolve().parent
 PREFIX = "_aot_"
@@ -75,16 +78,51 @@ def _current() -> bool:
     return _STATE["current"]
 
 
+_PICKLE_LOADS = pickle.loads
+
+
+class _MemoLoads:
+    """``pickle.loads`` with a memo on the bytes, handed to a built module as its unpickler.
+
+    A module built by numba.pycc unpickles, at every call, the signature of each first-class
+    function argument to unbox it (numba's JIT memoises this; pycc's copy of its helper calls
+    ``pickle.loads`` directly): 26 numba types per DOPRI5 call, about 70 us on top of the call's
+    own 8 us (benchmarks/bench_solve_front.py). The module
+    looks ``pickle.loads`` up once, at its first unpickling, which is its import (it rebuilds its
+    environments' constants there), and keeps it; :func:`built` imports it with this in place.
+    What it unpickles are its own constants (types, signatures, exception arguments), the same
+    bytes every call, so one object per distinct byte string serves. (``pickle.loads`` is
+    replaced only while the module is imported, once per process.)"""
+
+    def __init__(self):
+        self.memo: dict = {}
+
+    def __call__(self, data, *args, **kwargs):
+        try:
+            return self.memo[data]
+        except (KeyError, TypeError):
+            obj = _PICKLE_LOADS(data, *args, **kwargs)
+            if not args and not kwargs and isinstance(data, bytes):
+                self.memo[data] = obj
+            return obj
+
+
+called_from_compiled(_MemoLoads.__call__)
+
+
 def built(name: str):
     """The built core ``name`` if present and current, else None (looked up once per process)."""
     key = ("core", name)
     if key not in _STATE:
         fn = None
         if _current():
+            pickle.loads = _STATE[("loads", name)] = _MemoLoads()   # the module keeps it
             try:
                 fn = getattr(importlib.import_module(f"{__package__}.{PREFIX}{name}"), name)
             except (ImportError, AttributeError) as e:
                 _STATE["why"] = f"{name}: {e}"
+            finally:
+                pickle.loads = _PICKLE_LOADS
         _STATE[key] = fn
     return _STATE[key]
 

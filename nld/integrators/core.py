@@ -51,6 +51,7 @@ from numba import njit, types
 from numba.core.typing.typeof import typeof_impl
 
 from nld.errors import InputError
+from nld.interrupt import called_from_compiled
 
 from .aot import compiled
 from .events import (EPS, EVENT_SAMPLES, find_crossings, fire_events, locate_earliest,
@@ -248,6 +249,9 @@ def _install_jit_address_hook():
             return func._c_addr
         return orig_w(func, sig)
 
+    # numba calls them while unboxing a call's arguments: a signal there is deferred
+    called_from_compiled(_get_jit_address)
+    called_from_compiled(_get_wrapper_address)
     _get_jit_address._nld_hook = True
     ft._get_jit_address = _get_jit_address
     ft._get_wrapper_address = _get_wrapper_address
