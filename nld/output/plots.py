@@ -322,3 +322,159 @@ def basin_fractions(table: pd.DataFrame, param: str, *, title: str | None = None
     if title:
         fig.suptitle(title)
     return fig
+
+
+# ---------------------------------------------------------------------------------- page layout
+# Used by nld.output.report.Report.figure on every figure page: titles and labels that would run
+# past their panel are split into lines, and a legend that covers data is moved to a free corner
+# of its panel or, when there is none, under the panel (outside the data).
+
+_LEGEND_LOCS = ("upper right", "upper left", "lower left", "lower right", "center right",
+                "center left", "upper center", "lower center", "center")
+
+
+def _renderer(fig):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    return fig.canvas.get_renderer()
+
+
+def fit_texts(fig) -> bool:
+    """Split panel titles, axis labels and the figure title that are longer than their panel
+    (the page) into lines at sensible points (``report.split_value``); legend entries wider than
+    their panel too. True when a text was changed (the layout is then to be redone)."""
+    from nld.output.report import split_value
+    r = _renderer(fig)
+    changed = False
+
+    def fit(t, room_px, vertical=False):
+        nonlocal changed
+        s = t.get_text()
+        if not s or not t.get_visible() or "$" in s:
+            return
+        e = t.get_window_extent(r)
+        size = e.height if vertical else e.width
+        if size <= room_px * 1.001:
+            return
+        longest = max(s.split("\n"), key=len)
+        chars = max(8, int(len(longest) * room_px / size * 0.95))
+        new = "\n".join(split_value(s, chars))
+        if new != s:
+            t.set_text(new)
+            changed = True
+
+    for ax in fig.axes:
+        if not ax.get_visible() or not ax.axison:
+            continue
+        bb = ax.get_window_extent(r)
+        for t in (ax.title, getattr(ax, "_left_title", None), getattr(ax, "_right_title", None)):
+            if t is not None:
+                fit(t, bb.width)
+        fit(ax.xaxis.label, bb.width)
+        fit(ax.yaxis.label, bb.height, vertical=True)
+        leg = ax.get_legend()
+        if leg is not None:
+            for t in leg.get_texts():
+                fit(t, 0.8 * bb.width)
+    sup = getattr(fig, "_suptitle", None)
+    if sup is not None:
+        fit(sup, fig.bbox.width * 0.9)
+    return changed
+
+
+def _data_points(ax):
+    """Display coordinates (pixels) of what an axes draws: line vertices, markers and collection
+    offsets, patch corners, and the corners of its texts."""
+    pts = []
+    for ln in ax.lines:
+        if ln.get_visible() and len(ln.get_xydata()):
+            pts.append(ln.get_transform().transform(ln.get_xydata()))
+    for c in ax.collections:
+        if not c.get_visible():
+            continue
+        off = c.get_offsets()
+        if off is not None and len(off):
+            pts.append(c.get_offset_transform().transform(np.asarray(off, dtype=float)))
+        tr = c.get_transform()
+        for p in c.get_paths()[:2000]:
+            if len(p.vertices) and (off is None or len(off) <= 1):
+                pts.append(tr.transform(p.vertices))
+    for p in ax.patches:
+        if p.get_visible():
+            pts.append(p.get_transform().transform(p.get_path().vertices))
+    return np.concatenate([q for q in pts if q.ndim == 2 and q.shape[1] == 2]) if pts else np.zeros((0, 2))
+
+
+def _covered(bb, pts, text_boxes, pad: float) -> int:
+    x0, y0, x1, y1 = bb.x0 + pad, bb.y0 + pad, bb.x1 - pad, bb.y1 - pad
+    n = 0
+    if len(pts):
+        ok = np.isfinite(pts).all(axis=1)
+        p = pts[ok]
+        n += int(((p[:, 0] > x0) & (p[:, 0] < x1) & (p[:, 1] > y0) & (p[:, 1] < y1)).sum())
+    for t in text_boxes:
+        if min(x1, t.x1) > max(x0, t.x0) and min(y1, t.y1) > max(y0, t.y0):
+            n += 1
+    return n
+
+
+def place_legends(fig) -> bool:
+    """Move every panel legend that covers data (a line vertex, marker or text under its box) to
+    a corner of the panel where it covers none, or else under the panel, below its axis label, in
+    as many columns as the panel's width holds. True when a legend was moved."""
+    from matplotlib.transforms import offset_copy
+    r = _renderer(fig)
+    px_per_pt = fig.dpi / 72.0
+    moved = False
+    for ax in fig.axes:
+        leg = ax.get_legend()
+        if leg is None or not leg.get_visible() or getattr(leg, "_nld_outside", False):
+            continue
+        axbb = ax.get_window_extent(r)
+        bb = leg.get_window_extent(r)
+        inside = (bb.x0 >= axbb.x0 - 1 and bb.x1 <= axbb.x1 + 1 and bb.y0 >= axbb.y0 - 1
+                  and bb.y1 <= axbb.y1 + 1)
+        if not inside:
+            continue
+        pts = _data_points(ax)
+        texts = [t.get_window_extent(r) for t in ax.texts if t.get_visible() and t.get_text()]
+        pad = 1.5 * px_per_pt
+        if _covered(bb, pts, texts, pad) == 0:
+            continue
+        done = False
+        for loc in _LEGEND_LOCS:
+            leg.set_loc(loc)
+            b = leg.get_window_extent(r)
+            if (b.x0 >= axbb.x0 and b.x1 <= axbb.x1 and b.y0 >= axbb.y0 and b.y1 <= axbb.y1
+                    and _covered(b, pts, texts, pad) == 0):
+                done = True
+                break
+        if not done:
+            _legend_below(ax, leg, r, offset_copy)
+        moved = True
+    return moved
+
+
+def _legend_below(ax, leg, r, offset_copy) -> None:
+    handles = list(leg.legend_handles)
+    labels = [t.get_text() for t in leg.get_texts()]
+    size = leg.get_texts()[0].get_fontsize() if leg.get_texts() else 7.5
+    title = leg.get_title().get_text() or None
+    markerscale = getattr(leg, "markerscale", 1.0)
+    leg.set_visible(False)
+    tight = ax.get_tightbbox(r)
+    axbb = ax.get_window_extent(r)
+    drop_pt = (axbb.y0 - tight.y0) * 72.0 / ax.figure.dpi + 2.0
+    anchor = offset_copy(ax.transAxes, fig=ax.figure, x=0.0, y=-drop_pt, units="points")
+    leg.remove()
+    ncol = len(labels)
+    while True:
+        new = ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0),
+                        bbox_transform=anchor, ncols=max(ncol, 1), fontsize=size, title=title,
+                        markerscale=markerscale, frameon=False)
+        if ncol <= 1 or new.get_window_extent(r).width <= axbb.width:
+            break
+        new.remove()
+        ncol -= 1
+    new._nld_outside = True

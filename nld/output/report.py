@@ -172,6 +172,102 @@ def _new_figure(title: str | None = None):
     return fig
 
 
+_BREAK = None
+
+
+def split_value(text: str, width: int) -> list[str]:
+    """``text`` in lines of at most ``width`` characters where it can be, broken only at sensible
+    points: after a space, ``_``, ``/``, ``,``, ``;``, ``=`` or a ``.`` followed by a letter (module
+    paths, file names), never inside a word or a number; a token longer than ``width`` stays whole.
+    Line breaks already in the text are kept."""
+    import re
+    global _BREAK
+    if _BREAK is None:
+        _BREAK = re.compile(r"(?<=[ _/,;])|(?<=\.)(?=[A-Za-z_])")
+    out: list[str] = []
+    for line in str(text).split("\n"):
+        tokens = [t for t in _BREAK.split(line) if t]
+        cur = ""
+        for t in tokens:
+            if cur and len((cur + t).rstrip()) > width:
+                out.append(cur.rstrip())
+                cur = t.lstrip() if t.strip() else ""
+            else:
+                cur += t
+        out.append(cur.rstrip())
+    return out
+
+
+_TABLE_BASE = 8.5      # table font size [pt] when the columns fit
+_TABLE_MIN = 5.5       # smallest table font size [pt]
+_TABLE_LINE = 1.25     # line height over font size in table cells
+_TABLE_VPAD = 0.9      # vertical padding of a cell, in font sizes
+_TABLE_HPAD = 0.5      # horizontal padding on each side of a cell, in font sizes
+
+
+def _cell_lines(row) -> int:
+    return max([str(s).count("\n") + 1 for s in row] or [1])
+
+
+_WIDTHS: dict = {}
+
+
+def _text_width(s: str, size: float, bold: bool = False) -> float:
+    """Width [pt] of one line of text in the report font at ``size`` pt."""
+    key = (s, bold)
+    if key not in _WIDTHS:
+        from matplotlib.font_manager import FontProperties
+        from matplotlib.textpath import text_to_path
+        prop = FontProperties(size=10.0, weight="bold" if bold else "normal")
+        _WIDTHS[key] = text_to_path.get_text_width_height_descent(s, prop, ismath=False)[0] if s else 0.0
+    return _WIDTHS[key] * size / 10.0
+
+
+def _fit_columns(header, body, room_w: float, col_widths=None):
+    """``(header, body, widths, size)`` of a table ``room_w`` points wide that no cell text
+    overflows: headers and then long values split at sensible points (:func:`split_value`) and the
+    font shrunk (down to _TABLE_MIN) until every column holds its widest line; widths are fractions
+    of the table width (``col_widths``, relative, are kept where they leave each column room)."""
+    ncol = len(header)
+
+    def need(h, b, size):
+        w = []
+        for c in range(ncol):
+            lines = [(s, True) for s in h[c].split("\n")] + \
+                    [(s, False) for r in b for s in str(r[c]).split("\n")]
+            w.append(max(_text_width(s, size, bold) for s, bold in lines) + 2 * _TABLE_HPAD * size)
+        return w
+
+    def wrap_h(L):
+        return [h if L is None else "\n".join(split_value(h, L)) for h in header]
+
+    def wrap_b(L):
+        return [[s if L is None else "\n".join(split_value(s, L)) for s in r] for r in body]
+
+    tries = [(None, None), (16, None), (12, None), (10, None), (10, 32), (10, 24), (8, 18), (8, 12)]
+    best = None
+    for hl, bl in tries:
+        h, b = wrap_h(hl), wrap_b(bl)
+        n = need(h, b, _TABLE_BASE)
+        size = min(_TABLE_BASE, _TABLE_BASE * room_w / max(sum(n), 1e-9))
+        if best is None or size > best[3] + 1e-9:
+            best = (h, b, n, size)
+        if size >= 7.0:
+            best = (h, b, n, size)
+            break
+    h, b, n, size = best
+    size = max(size, _TABLE_MIN)
+    n = [x * size / _TABLE_BASE for x in n]
+    if col_widths is not None and len(col_widths) == ncol:
+        tot = float(sum(col_widths)) or 1.0
+        want = [max(room_w * float(x) / tot, m) for x, m in zip(col_widths, n)]
+    else:
+        spare = max(room_w - sum(n), 0.0)        # shared out evenly over the columns
+        want = [m + spare / ncol for m in n]
+    tot = sum(want) or 1.0
+    return h, b, [x / tot for x in want], size
+
+
 def _fit(text: str, room_pt: float, size: float) -> str:
     """``text`` cut (ending in '…') to at most ``room_pt`` points wide at font ``size`` [pt], so the
     footer's title never runs into the centred page number."""
@@ -264,11 +360,26 @@ class Report:
             fig.text(_MARGIN, _FOOTER_H + 0.012, "\n".join(lines), fontsize=8.5, va="bottom", ha="left",
                      linespacing=1.3)
         top = _TOP - 0.005 if fig.get_suptitle() else 0.985
-        if fig.get_layout_engine() is None:
-            import warnings
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)       # tight_layout's "not compatible"
-                fig.tight_layout(rect=(0.01, bottom, 0.99, top))
+        engine = fig.get_layout_engine()
+
+        def layout():
+            if engine is None:
+                import warnings
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", UserWarning)   # tight_layout's "not compatible"
+                    fig.tight_layout(rect=(0.01, bottom, 0.99, top))
+            else:
+                fig.draw_without_rendering()
+        # titles and labels longer than their panel are split into lines; a legend over data goes
+        # to a free corner or under its panel (nld.output.plots); the layout is redone after each
+        from nld.output.plots import fit_texts, place_legends
+        layout()
+        for _ in range(3):
+            changed = fit_texts(fig)
+            changed = place_legends(fig) or changed
+            if not changed:
+                break
+            layout()
         self._pages.append(fig)
 
     def text_page(self, title: str, paragraphs) -> None:
@@ -304,35 +415,47 @@ class Report:
         units = col_units or {}
         header = [f"{c}\n[{units[c]}]" if units.get(c) else str(c) for c in df.columns]
         body = [[_fmt_cell(v, float_format) for v in row] for row in df.itertuples(index=False)]
-        if col_widths is None:
-            w = [max([len(s) for s in h.split("\n")] + [len(r[i]) for r in body]) + 2
-                 for i, h in enumerate(header)]
-        else:
-            w = list(col_widths)
-        tot = float(sum(w)) or 1.0
-        widths = [x / tot for x in w]
+        room_w = (1 - 2 * _MARGIN) * PAGE_SIZE[0] * 72.0          # points across the page
+        header, body, widths, size = _fit_columns(header, body, room_w, col_widths)
         note_lines = self._wrap([notes] if isinstance(notes, str) else list(notes or []), width=160)
-        chunks = [body[i:i + rows_per_page] for i in range(0, len(body), rows_per_page)] or [[]]
+        # rows per page: at most rows_per_page, and as many as the page's height holds
+        line_pt = _TABLE_LINE * size
+        head_pt = _cell_lines(header) * line_pt + _TABLE_VPAD * size
+        row_pts = [_cell_lines(r) * line_pt + _TABLE_VPAD * size for r in body]
+        room_h = (_TOP - 0.03 - _FOOTER_H - 0.02) * PAGE_SIZE[1] * 72.0
+        chunks, cur, used = [], [], head_pt
+        for r, h in zip(body, row_pts):
+            note_pt = (0.021 * len(note_lines) + 0.02) * PAGE_SIZE[1] * 72.0
+            if cur and (len(cur) >= rows_per_page or used + h > room_h - note_pt):
+                chunks.append(cur)
+                cur, used = [], head_pt
+            cur.append(r)
+            used += h
+        chunks.append(cur)
         for k, chunk in enumerate(chunks):
             fig = _new_figure(title if k == 0 else f"{title} (continued)")
             last = k == len(chunks) - 1
             note_h = (0.021 * len(note_lines) + 0.02) if (last and note_lines) else 0.0
             ax_bottom = _FOOTER_H + 0.02 + note_h
-            ax = fig.add_axes((_MARGIN, ax_bottom, 1 - 2 * _MARGIN, _TOP - 0.03 - ax_bottom))
+            ax_h = _TOP - 0.03 - ax_bottom
+            ax = fig.add_axes((_MARGIN, ax_bottom, 1 - 2 * _MARGIN, ax_h))
             ax.axis("off")
-            n = len(chunk) + 1
-            row_h = min(0.065, 1.0 / (n + 1.2))
+            heights = [head_pt] + [_cell_lines(r) * line_pt + _TABLE_VPAD * size for r in chunk]
+            ax_pt = ax_h * PAGE_SIZE[1] * 72.0
+            total = sum(heights) / ax_pt            # axes fraction; the bbox keeps the ratios
             tbl = ax.table(cellText=chunk if chunk else None, colLabels=header, colWidths=widths,
                            cellLoc="center", colLoc="center", loc="upper center",
-                           bbox=(0.0, 1.0 - row_h * (n + 0.6), 1.0, row_h * (n + 0.6)))
+                           bbox=(0.0, 1.0 - total, 1.0, total))
             tbl.auto_set_font_size(False)
-            tbl.set_fontsize(8.5)
+            tbl.set_fontsize(size)
             for (r, c), cell in tbl.get_celld().items():
                 cell.set_linewidth(0.4)
+                cell.set_height(heights[r] / ax_pt)
+                cell.PAD = _TABLE_HPAD * size / max(widths[c] * room_w, 1.0)
+                cell.get_text().set_linespacing(_TABLE_LINE / 1.2)
                 if r == 0:
                     cell.set_facecolor("#e6e6e6")
                     cell.set_text_props(fontweight="bold")
-                    cell.set_height(cell.get_height() * 1.6)
                 elif r % 2 == 0:
                     cell.set_facecolor("#f7f7f7")
             if last and note_lines:
@@ -412,6 +535,35 @@ class Report:
                   for w in (textwrap.wrap(line, width=52, subsequent_indent="    ") or [""])]
         # lines per column: first page below a title of up to two lines and a subtitle, then more
         per_first, per_next, ncols_first, ncols_next = 48, 52, 2, 3
+        title = textwrap.wrap(self.title, width=78) or [""]
+        top = 0.955 - 0.042 * len(title) - 0.01 - (0.045 if self.subtitle else 0.0) - 0.015
+        line_h = 8.3 * 1.5 / 72.0 / PAGE_SIZE[1]          # a Run line, figure fraction
+        room = int(((top - 0.04) - (_FOOTER_H + 0.012)) / line_h)
+
+        def run_lines(chars: int) -> list[str]:
+            lw = min(max(len(a) for a, _ in info), 18)
+            text = []
+            for a, b in info:
+                names = split_value(a, lw)
+                vals = split_value(b, max(16, chars - lw - 2)) or [""]
+                if max(len(v) for v in vals) > max(16, chars - lw - 2):    # a long hash or path:
+                    text.append(a)                                        # under its name
+                    text.extend("  " + v for v in split_value(b, chars - 2))
+                    continue
+                for i in range(max(len(names), len(vals))):
+                    n = names[i] if i < len(names) else ""
+                    v = vals[i] if i < len(vals) else ""
+                    text.append(f"{n:<{lw}}  {v}".rstrip())
+            return text
+
+        run = run_lines(56)                    # the Run column: 0.045 to 0.385 of the width
+        run_cols = [run]
+        if len(run) > room:                    # too long beside the parameters: the Run block
+            run = run_lines(74)                # takes the page in two columns, the parameters
+            run_cols = [run[:room], run[room:2 * room]]      # follow on their own pages
+            if len(run) > 2 * room:
+                run_cols[-1] = run[room:2 * room - 1] + ["… (see the PDF metadata)"]
+            per_first = 0
         cols = []
         rest = params
         first = True
@@ -420,36 +572,33 @@ class Report:
             cols.append(rest[:n])
             rest = rest[n:]
             first = False
-        if not cols:
-            cols = [[]]
+        if not cols or per_first == 0:
+            cols = [[]] + [c for c in cols if c]
         pages = []
         for k, chunk in enumerate(cols):
             fig = _new_figure()
             if k == 0:
-                title = textwrap.wrap(self.title, width=78) or [""]
                 fig.text(_MARGIN, 0.955, "\n".join(title), fontsize=16, fontweight="bold", va="top",
                          ha="left", linespacing=1.2)
-                y = 0.955 - 0.042 * len(title) - 0.01
                 if self.subtitle:
-                    fig.text(_MARGIN, y, self.subtitle, fontsize=12.5, va="top", ha="left",
+                    fig.text(_MARGIN, 0.955 - 0.042 * len(title) - 0.01, self.subtitle, fontsize=12.5,
+                             va="top", ha="left",
                              color="#b00000" if self.highlight_subtitle else "black",
                              fontweight="bold" if self.highlight_subtitle else "normal")
-                    y -= 0.045
-                top = y - 0.015
-                label_w = max(len(a) for a, _ in info)
-                text = []
-                for a, b in info:
-                    wrapped = textwrap.wrap(b, width=max(16, 46 - label_w)) or [""]
-                    text.append(f"{a:<{label_w}}  {wrapped[0]}")
-                    text.extend(" " * (label_w + 2) + s for s in wrapped[1:])
-                fig.text(_MARGIN, top - 0.04, "\n".join(text), fontsize=8.3, family="monospace",
-                         va="top", ha="left", linespacing=1.5)
+                from nld.output.provenance import git_hash
+                if "+dirty" in git_hash():
+                    fig.text(1 - _MARGIN, 0.955 - 0.042 * len(title) - 0.01,
+                             "made from a source tree with uncommitted changes (git +dirty)",
+                             fontsize=10, va="top", ha="right", color="#b00000", fontweight="bold")
+                for c, part in enumerate(run_cols):
+                    fig.text(_MARGIN + c * 0.47, top - 0.04, "\n".join(part), fontsize=8.3,
+                             family="monospace", va="top", ha="left", linespacing=1.5)
                 fig.text(_MARGIN, top, "Run", fontsize=11, fontweight="bold", va="top", ha="left")
                 x0, ncol = 0.385, ncols_first
-                head = "Scene parameters (SI units)" if params else ""
+                head = "Scene parameters (SI units)" if (params and per_first) else ""
             else:
-                fig.text(_MARGIN, 0.955, "Scene parameters (SI units, continued)", fontsize=13,
-                         fontweight="bold", va="top", ha="left")
+                fig.text(_MARGIN, 0.955, "Scene parameters (SI units" + (", continued)" if per_first else ")"),
+                         fontsize=13, fontweight="bold", va="top", ha="left")
                 top = 0.89
                 x0, ncol = _MARGIN, ncols_next
                 head = ""
@@ -472,7 +621,9 @@ class Report:
         fig.text(_MARGIN, y, _fit(self.title, (0.5 - _MARGIN - 0.05) * fig.get_figwidth() * 72.0, 7.5),
                  fontsize=7.5, ha="left", va="bottom", color="#444444")
         fig.text(0.5, y, f"page {i} of {n}", fontsize=7.5, ha="center", va="bottom", color="#444444")
-        fig.text(1 - _MARGIN, y, f"nld {__version__} · git {git_hash()[:12]}", fontsize=7.5,
+        h = git_hash()
+        short = h[:12] + (" +dirty" if "+dirty" in h else "") + (" (NLD_GIT_HASH)" if "NLD_GIT_HASH" in h else "")
+        fig.text(1 - _MARGIN, y, f"nld {__version__} · git {short}", fontsize=7.5,
                  ha="right", va="bottom", color="#444444")
 
     def metadata(self) -> dict:
