@@ -1076,7 +1076,7 @@ def _text_discussion(summary, tables, ideal, ts, scene, settings=None):
 SENSITIVITY_CSV = Path(__file__).resolve().parent.parent / "reports" / "zhang2013_sensitivity_summary.csv"
 
 
-def _sensitivity_page(rep) -> None:
+def _sensitivity_page(rep, summary=None, settings=None) -> None:
     """The page "What it takes to reach the paper's numbers" (text and figure) drawn from the committed
     sensitivity study's summary, when it is there (full mode only: the study is run on its own,
     nld study zhang2013_sensitivity --out reports/)."""
@@ -1085,8 +1085,14 @@ def _sensitivity_page(rep) -> None:
     import runpy
 
     from nld.output.io import load_table
-    summary, prov = load_table(SENSITIVITY_CSV)
-    runpy.run_path(str(Path(__file__).with_name("zhang2013_sensitivity.py")))["paper_page"](rep, summary, prov)
+    sens, prov = load_table(SENSITIVITY_CSV)
+    own = None
+    if summary is not None:           # this report's own run of the scene's f = 0 case (its p. 4)
+        r = summary[(summary["quantity"] == "max |rod.omega|") & (summary["case"] == "f=0")]
+        if len(r):
+            own = {"mean": float(r["nld"].iloc[0]), "half_width": float(r["± 95 %"].iloc[0]),
+                   "revs": f"{(settings or {}).get('transient_revs', '?')} + {(settings or {}).get('steady_revs', '?')}"}
+    runpy.run_path(str(Path(__file__).with_name("zhang2013_sensitivity.py")))["paper_page"](rep, sens, prov, own=own)
 
 
 def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
@@ -1173,7 +1179,7 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
                       _agreement_text(summary, pts, tables, ideal, ts))
         rep.text_page("Why the numbers differ", reasons)
         if mode == "full":
-            _sensitivity_page(rep)
+            _sensitivity_page(rep, summary, settings)
         for group in GROUPS:
             _fig_trajectory(rep, group, tables, ideal, ts)
             fno = GROUPS[group][2]

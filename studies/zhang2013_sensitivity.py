@@ -334,7 +334,83 @@ def clean(summary: pd.DataFrame) -> pd.DataFrame:
     s["series"] = s["series"].astype(object).where(s["series"].notna(), "").astype(str)
     s["success"] = s["success"].astype(bool)
     s["growing"] = s["growing"].fillna(False).astype(bool) if "growing" in s else False
+    s["state"] = states(s)
+    s["run"] = run_ids(s)
     return s
+
+
+STATES = ("steady", "transient", "runaway", "failed")
+
+
+def states(summary: pd.DataFrame) -> list[str]:
+    """Each point's state, which decides whether its peaks give a statistic: "failed" (the run
+    stopped), "runaway" (friction along the slip, the paper's eq. 17 read literally, with f > 0:
+    the friction pair feeds energy into the rattle, so the level it reaches is that of a runaway,
+    not a property of the machine), "transient" (the per-revolution peaks still grow across the
+    window, ``growing``), else "steady". Only steady points are reported as mean ± interval."""
+    out = []
+    for r in summary.to_dict("records"):
+        f = r.get("f")
+        rev = bool(r.get("reversed")) if r.get("reversed") == r.get("reversed") else False
+        if not bool(r.get("success")):
+            out.append("failed")
+        elif rev and f == f and f is not None and float(f) > 0.0:
+            out.append("runaway")
+        elif bool(r.get("growing")):
+            out.append("transient")
+        else:
+            out.append("steady")
+    return out
+
+
+def run_ids(summary: pd.DataFrame) -> list[str]:
+    """An id of the run each point is, the same for points that set the same model: overrides
+    equal to the scene's own value are dropped (damping = 1 x the scene's, M43 = 1200 N m,
+    K2 = 3.66e11 and l4 = 0.13 m at a base case are all the base case's run), then the rest,
+    the friction reading (reversed) and the motor are hashed."""
+    from nld.model.scene import load_scene, scene_to_dict
+    scene = scene_to_dict(load_scene(SCENE))
+
+    def value(key):
+        node = scene
+        for part in key.split("."):
+            if isinstance(node, list):
+                node = node[int(part)] if part.isdigit() and int(part) < len(node) else None
+            elif isinstance(node, dict):
+                node = node.get(part)
+            else:
+                return None
+        return node
+
+    def same(a, b):
+        try:
+            return bool(np.allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float), rtol=1e-12, atol=0.0))
+        except (TypeError, ValueError):
+            return a == b
+
+    out = []
+    for r in summary.to_dict("records"):
+        ovs = r.get("overrides")
+        ovs = ovs if isinstance(ovs, list) else str(ovs or "").split()
+        kept = []
+        for o in ovs:
+            k, _, v = str(o).partition("=")
+            try:
+                v = json.loads(v)
+            except ValueError:
+                pass
+            if not same(v, value(k)):
+                kept.append(f"{k}={v!r}")
+        motor = [r.get(c) for c in ("motor_J", "motor_k") if r.get(c) == r.get(c) and r.get(c) is not None]
+        rev = bool(r.get("reversed")) if r.get("reversed") == r.get("reversed") else False
+        out.append(hashlib.sha1(json.dumps([sorted(kept), rev, motor], default=str).encode()).hexdigest()[:16])
+    return out
+
+
+def steady(summary: pd.DataFrame) -> pd.DataFrame:
+    """The points whose peaks give a statistic (state "steady"), each distinct run once."""
+    s = clean(summary) if "state" not in summary else summary
+    return s[s["state"] == "steady"].drop_duplicates("run")
 
 
 def trend_rows(summary: pd.DataFrame) -> pd.DataFrame:
@@ -343,6 +419,7 @@ def trend_rows(summary: pd.DataFrame) -> pd.DataFrame:
     summary = clean(summary)
     s = summary[summary["success"]]
     rows = []
+    seen: dict = {}
     fb = s[s["base"].isin(["f=0", "f=0.05"])]
     for (sweep, series, x), g in fb.groupby(["sweep", "series", "x"], sort=False):
         a, b = g[g["base"] == "f=0"], g[g["base"] == "f=0.05"]
@@ -353,7 +430,34 @@ def trend_rows(summary: pd.DataFrame) -> pd.DataFrame:
         a, b = g[np.isclose(g["x"], 0.0)], g[np.isclose(g["x"], 0.05)]
         if len(a) and len(b):
             rows.append(_trend("friction", series, math.nan, a.iloc[0], b.iloc[0]))
-    return pd.DataFrame(rows)
+    # each distinct pair of runs once: settings that set the same model are named together
+    out = []
+    for r in rows:
+        k = r.pop("_runs")
+        name = _setting_name(r)
+        if k in seen:
+            seen[k]["same run as"] = ", ".join(x for x in (seen[k]["same run as"], name) if x)
+            continue
+        r["same run as"] = ""
+        seen[k] = r
+        out.append(r)
+    return pd.DataFrame(out)
+
+
+def _setting_name(r) -> str:
+    x = r.get("x")
+    return (f"{r['sweep']}{' (' + r['series'] + ')' if r['series'] else ''}"
+            f"{'' if x is None or x != x else ' = ' + format(x, 'g')}")
+
+
+def tally(trends: pd.DataFrame) -> dict:
+    """How the distinct settings of :func:`trend_rows` divide: rises, falls, not resolved (both
+    ends steady) and not steady (an end transient or runaway); the counts add up to the total."""
+    c = trends["trend"].value_counts() if len(trends) else pd.Series(dtype=int)
+    out = {k: int(c.get(k, 0)) for k in ("rises", "falls", "not resolved")}
+    out["not steady"] = int(len(trends) - sum(out.values()))
+    out["total"] = int(len(trends))
+    return out
 
 
 def _reached(mean, hw, paper):
@@ -361,62 +465,91 @@ def _reached(mean, hw, paper):
 
 
 def _trend(sweep, series, x, a, b):
-    dm, hw = b["mean"] - a["mean"], math.hypot(a["half_width"], b["half_width"])
-    verdict = "rises" if dm > hw else "falls" if -dm > hw else "not resolved"
-    grow = bool(a["growing"] or b["growing"])
-    return {"sweep": sweep, "series": series, "x": x, "f=0": a["mean"], "± f=0": a["half_width"],
-            "f=0.05": b["mean"], "± f=0.05": b["half_width"], "change": dm, "± change": hw, "trend": verdict,
-            "40 reached": _reached(a["mean"], a["half_width"], 40.0),
-            "90 reached": _reached(b["mean"], b["half_width"], 90.0), "still growing": grow,
-            "all three": bool(verdict == "rises" and _reached(a["mean"], a["half_width"], 40.0)
-                              and _reached(b["mean"], b["half_width"], 90.0))}
+    """One setting's change from f = 0 (run a) to f = 0.05 (run b): a statistic only where both
+    runs are steady; otherwise the trend names the state ("transient", "runaway") and the numbers
+    of the unsteady end are left out (–)."""
+    sa, sb = a.get("state", "steady"), b.get("state", "steady")
+    ma, ha = (a["mean"], a["half_width"]) if sa == "steady" else (math.nan, math.nan)
+    mb, hb = (b["mean"], b["half_width"]) if sb == "steady" else (math.nan, math.nan)
+    if sa == "steady" and sb == "steady":
+        dm, hw = mb - ma, math.hypot(ha, hb)
+        verdict = "rises" if dm > hw else "falls" if -dm > hw else "not resolved"
+    else:
+        dm = hw = math.nan
+        verdict = "runaway" if "runaway" in (sa, sb) else "transient"
+    r40 = sa == "steady" and _reached(ma, ha, 40.0)
+    r90 = sb == "steady" and _reached(mb, hb, 90.0)
+    return {"sweep": sweep, "series": series, "x": x, "f=0": ma, "± f=0": ha,
+            "f=0.05": mb, "± f=0.05": hb, "change": dm, "± change": hw, "trend": verdict,
+            "40 reached": r40, "90 reached": r90,
+            "all three": bool(verdict == "rises" and r40 and r90),
+            "_runs": (a.get("run", a.get("key")), b.get("run", b.get("key")))}
 
 
 def answer(summary: pd.DataFrame, trends: pd.DataFrame) -> list[str]:
     """The page's text, every number from the data."""
     summary = clean(summary)
-    ok = summary[summary["success"]]
+    ok = summary[summary["state"] == "steady"]            # statistics: steady runs only
     failed = summary[~summary["success"]]
+
+    def name(r):
+        return f"{r['sweep']} = {r['x']:g}{', ' + r['series'] if r['series'] else ''}"
 
     def best(base):
         g = ok[ok["base"] == base]
-        if not len(g):
-            return f"{base}: no finished point"
-        r = g.loc[g["mean"].idxmax()]
-        return (f"{base}: largest {r['mean']:.3g} ± {r['half_width']:.2g} rad/s ({r['sweep']} = {r['x']:g}"
-                f"{', ' + r['series'] if r['series'] else ''}{', still growing' if r['growing'] else ''}; "
-                f"paper {BASES[base][1]:g})")
+        txt = f"{base}: no steady point" if not len(g) else None
+        if len(g):
+            r = g.loc[g["mean"].idxmax()]
+            txt = (f"{base}: largest steady {r['mean']:.3g} ± {r['half_width']:.2g} rad/s ({name(r)}; "
+                   f"paper {BASES[base][1]:g})")
+        top = float(g["mean"].max()) if len(g) else -math.inf
+        un = summary[(summary["base"] == base) & summary["state"].isin(["transient", "runaway"])
+                     & (summary["max"] > top)].drop_duplicates("run")
+        for _, u in un.iterrows():
+            txt += (f"; higher only in a transient ({name(u)}: still growing, {u['min']:.3g} -> {u['max']:.3g})"
+                    if u["state"] == "transient" else
+                    f"; higher only in a runaway ({name(u)}: friction along the slip feeds energy in, "
+                    f"|rod omega| up to {u['max']:.3g})")
+        return txt
     ref = {b: ok[(ok["base"] == b) & (ok["sweep"] == "damping") & np.isclose(ok["x"], 1.0)] for b in BASES}
     refs = "; ".join(f"{b} {r['mean'].iloc[0]:.3g} ± {r['half_width'].iloc[0]:.2g}" for b, r in ref.items() if len(r))
     paras = [f"Each point: the located per-revolution maximum of |rod omega|, mean ± {100 * LEVEL:g} % interval "
              "(nld.analysis.peaks.peak_interval, batch means) over the steady revolutions of one run from the "
              f"assembled state. 'Reached' means the interval overlaps [paper / {FACTOR:g}, paper x {FACTOR:g}]; "
-             "a change with f 'rises' or 'falls' when it exceeds the combined half-width. "
+             "a change with f 'rises' or 'falls' when it exceeds the combined half-width. Only steady runs give "
+             "a mean: a run whose peaks still grow is a transient, and one with friction along the slip (eq. 17 "
+             "read literally, f > 0) a runaway; both are named as such, with the range they covered. "
              f"The scene's own choices give: {refs} rad/s."]
-    paras.append("Largest peak found per base case: " + "; ".join(best(b) for b in BASES if (ok["base"] == b).any()) + ".")
+    paras.append("Largest peak found per base case: " + "; ".join(best(b) for b in BASES if (summary["base"] == b).any()) + ".")
     if len(trends):
-        c = trends["trend"].value_counts()
+        c = tally(trends)
         all3 = trends[trends["all three"]]
-        grow = ok[ok["growing"].astype(bool)]
-        paras.append(f"Friction trend f = 0 -> 0.05 over {len(trends)} settings: rises in {c.get('rises', 0)}, "
-                     f"falls in {c.get('falls', 0)}, not resolved in {c.get('not resolved', 0)}. "
+        paras.append(f"Friction trend f = 0 -> 0.05 over {c['total']} distinct settings (settings that set the same "
+                     f"model, e.g. a value equal to the scene's own, are one run and counted once): rises in "
+                     f"{c['rises']}, falls in {c['falls']}, not resolved in {c['not resolved']}, not steady "
+                     f"(transient or runaway at an end) in {c['not steady']}. "
                      f"40 rad/s at f = 0 reached in {int(trends['40 reached'].sum())}, 90 at f = 0.05 in "
                      f"{int(trends['90 reached'].sum())}; all three together in {len(all3)}"
-                     + (": " + "; ".join(f"{r['sweep']} {r['series']} {r['x']:g}" for _, r in all3.iterrows())
-                        if len(all3) else "") + ".")
+                     + (": " + "; ".join(_setting_name(r) for _, r in all3.iterrows()) if len(all3) else "") + ".")
         rises = trends[trends["trend"] == "rises"]
         if len(rises):
             paras.append("Where the peak rises with f: " + "; ".join(
-                f"{r['sweep']}{' (' + r['series'] + ')' if r['series'] else ''}"
-                f"{'' if math.isnan(r['x']) else ' = ' + format(r['x'], 'g')}: {r['f=0']:.3g} -> {r['f=0.05']:.3g} "
-                f"(± {r['± change']:.2g})" for _, r in rises.iterrows()) + ".")
-        if len(grow):
-            paras.append(f"Not steady: at {len(grow)} points the per-revolution peaks still grow across the window "
-                         "(slope of a line through them > 2 standard errors and > 10 % of the mean over the "
-                         "window): " + "; ".join(f"{r['base']} {r['sweep']} = {r['x']:g} {r['series']}".rstrip()
-                                                 + f" ({r['min']:.3g} -> {r['max']:.3g})" for _, r in grow.iterrows())
-                         + ". Their 'mean' depends on how long one integrates: a peak taken from such a run is a "
-                           "transient, not a property of the machine.")
+                f"{_setting_name(r)}: {r['f=0']:.3g} -> {r['f=0.05']:.3g} (± {r['± change']:.2g})"
+                for _, r in rises.iterrows()) + ".")
+    grow = summary[summary["state"] == "transient"].drop_duplicates("run")
+    if len(grow):
+        paras.append(f"Transients: at {len(grow)} runs the per-revolution peaks still grow across the window "
+                     "(slope of a line through them > 2 standard errors and > 10 % of the mean over the "
+                     "window): " + "; ".join(f"{r['base']} {name(r)} ({r['min']:.3g} -> {r['max']:.3g})"
+                                             for _, r in grow.iterrows())
+                     + ". No mean is given for them: it would depend on how long one integrates.")
+    run = summary[summary["state"] == "runaway"].drop_duplicates("run")
+    if len(run):
+        paras.append(f"Runaways: {len(run)} finished runs with friction along the slip (f > 0): "
+                     + "; ".join(f"{r['base']} {name(r)} (|rod omega| {r['min']:.3g} to {r['max']:.3g})"
+                                 for _, r in run.iterrows())
+                     + ". The friction pair feeds energy into the rattle; the level reached is that of the "
+                       "runaway, not a statistic of the machine.")
     cl = ok[ok["base"].isin(["r=0.01mm", "r=0.5mm"])]
     pairs = [(g[g["base"] == "r=0.01mm"], g[g["base"] == "r=0.5mm"])
              for _, g in cl.groupby(["sweep", "series", "x"], sort=False)]
@@ -431,10 +564,20 @@ def answer(summary: pd.DataFrame, trends: pd.DataFrame) -> list[str]:
                      f"{sum(_reached(b['mean'], b['half_width'], 200.0) for _, b in pairs)}, both in {len(hits)}.")
     if len(failed):
         paras.append(f"Failed ({len(failed)}): " + "; ".join(
-            f"{r['base']} {r['sweep']} = {r['x']:g} {r['series']}: {str(r['message'])[:40]}".rstrip()
+            f"{r['base']} {r['sweep']} = {r['x']:g} {r['series']}: {short_message(r['message'])}".rstrip()
             + (f" (|rod omega| had reached {r['sampled_max']:.3g} rad/s)" if r.get("sampled_max") == r.get("sampled_max")
                and r.get("sampled_max") is not None else "") for _, r in failed.iterrows()) + ".")
     return paras
+
+
+def short_message(message, n: int = 60) -> str:
+    """A run's failure message cut to at most about ``n`` characters at a word boundary (with
+    " …"), never inside a word or a number."""
+    m = " ".join(str(message).split())
+    if len(m) <= n:
+        return m
+    cut = m.rfind(" ", 0, n)
+    return (m[:cut] if cut > 0 else m.split(" ")[0]).rstrip(" ,;:") + " …"
 
 
 EQ5_TEXT = [
@@ -461,12 +604,17 @@ EQ5_TEXT = [
 
 def _panel(ax, g, base, color, label, marker="o", ls="-"):
     g = g.sort_values("x")
-    ok = g[g["success"].astype(bool)]
-    if len(ok):
+    st = g["state"] if "state" in g else pd.Series(states(g), index=g.index)
+    ok = g[st == "steady"]
+    if len(ok):            # mean ± interval: steady runs only
         ax.errorbar(ok["x"], ok["mean"], yerr=ok["half_width"], color=color, marker=marker, ms=4, lw=1,
                     ls=ls, capsize=2, label=label)
-        gr = ok[ok["growing"].astype(bool)]
-        ax.plot(gr["x"], gr["mean"], ls="none", marker="o", ms=10, mfc="none", mec=color)
+    gr = g[st == "transient"]          # transients and runaways: the largest peak, no statistic
+    ax.plot(gr["x"], gr["max"], ls="none", marker="o", ms=8, mfc="none", mec=color,
+            label=None if len(ok) or not len(gr) else label)
+    ra = g[st == "runaway"]
+    ax.plot(ra["x"], ra["max"], ls="none", marker="^", ms=8, mfc="none", mec=color,
+            label=None if len(ok) or len(gr) or not len(ra) else label)
     bad = g[~g["success"].astype(bool)]
     for x in bad["x"]:
         ax.annotate("failed", (x, 1.0), xycoords=("data", "axes fraction"), color=color, fontsize=6,
@@ -522,14 +670,18 @@ def fig_friction(rep, summary: pd.DataFrame) -> None:
         "r1 = 0.07, r2 = 0.03 mm. 'coulomb': the scene (hybrid stick/slip modes, contact damping as chosen); "
         "'undamped': C1n = C2n = 0; 'ambrosio': the continuous Ambrosio law; 'eq. 17 literal': the paper's "
         "eqs 12-17 read literally, friction along the slip (Ambrosio law, mu negated in the kernel's "
-        "parameters), with the scene's damping or 3x it. Open circles: peaks still growing across the "
-        "window; 'failed': the run stopped (step budget per revolution). Stars: the paper."))
+        "parameters), with the scene's damping or 3x it. Mean ± interval: steady runs only; open circles: "
+        "transients (peaks still growing across the window), open triangles: runaways (friction along the slip "
+        "with f > 0), each at its largest peak, no statistic; 'failed': the run stopped (step budget per "
+        "revolution). Stars: the paper."))
 
 
 def fig_revolutions(rep, summary: pd.DataFrame, peaks: pd.DataFrame) -> None:
     """The per-revolution peaks of the points that grow, beside the scene's reference points."""
     ok = summary[summary["success"].astype(bool)]
-    keys = list(ok[ok["sweep"] == "long run"]["key"]) + list(ok[ok["growing"].astype(bool)]["key"])[:6]
+    keys = list(ok[ok["sweep"] == "long run"]["key"]) + list(ok[ok["growing"].astype(bool)]
+                                                              .drop_duplicates("run")["key"] if "run" in ok
+                                                              else ok[ok["growing"].astype(bool)]["key"])[:6]
     keys += list(ok[(ok["sweep"] == "damping") & np.isclose(ok["x"], 1.0) & ok["base"].str.startswith("f=")]["key"])
     if not keys or not len(peaks):
         return
@@ -546,9 +698,11 @@ def fig_revolutions(rep, summary: pd.DataFrame, peaks: pd.DataFrame) -> None:
                             "choices at f = 0 and 0.05.")
 
 
-def paper_page(rep, summary: pd.DataFrame, prov: dict | None = None) -> None:
+def paper_page(rep, summary: pd.DataFrame, prov: dict | None = None, *, own: dict | None = None) -> None:
     """The page "What it takes to reach the paper's numbers" (text and the figure against each
-    unknown at f = 0 and 0.05) from a summary table of this study; used by the zhang2013 study."""
+    unknown at f = 0 and 0.05) from a summary table of this study; used by the zhang2013 study,
+    which passes ``own``: its own run of the scene's f = 0 case (mean, half_width [rad/s], revs
+    "transient + steady"), so that the page says why the two numbers of one case differ."""
     from nld.model.scene import load_scene
     d = defaults(load_scene(SCENE))
     summary = clean(summary)
@@ -557,10 +711,34 @@ def paper_page(rep, summary: pd.DataFrame, prov: dict | None = None) -> None:
                                f"{prov.get('transient_revs')} + {prov.get('steady_revs')} revolutions per point)")
     rep.text_page("What it takes to reach the paper's numbers", [
         "The sensitivity study (studies/zhang2013_sensitivity.py, issue 28)" + src + " varies the values "
-        "the paper leaves out or garbles, one at a time and in pairs."] + answer(summary, tr) + EQ5_TEXT)
+        "the paper leaves out or garbles, one at a time and in pairs."] + answer(summary, tr)
+        + two_runs_text(summary, own, prov) + EQ5_TEXT)
     fig_unknowns(rep, summary, ["f=0", "f=0.05"], d, "Peak |rod ω| against each unknown, f = 0 and f = 0.05",
                  "Mean ± 95 % interval of the located per-revolution maxima; dashed lines: the paper's 40 (f = 0) "
-                 "and 90 rad/s (f = 0.05); dotted vertical line: the scene's choice; open circles: still growing.")
+                 "and 90 rad/s (f = 0.05); dotted vertical line: the scene's choice; open circles: transients, open "
+                 "triangles: runaways, each at its largest peak (no statistic).")
+
+
+def two_runs_text(summary: pd.DataFrame, own: dict | None, prov: dict | None = None) -> list[str]:
+    """A paragraph naming both values of the scene's f = 0 case when the zhang2013 report has its
+    own run of it (``own``) beside this study's: two runs of one model over different windows."""
+    if not own:
+        return []
+    s = clean(summary)
+    r = s[(s["base"] == "f=0") & (s["sweep"] == "damping") & np.isclose(s["x"], 1.0) & (s["series"] == "")
+          & (s["state"] == "steady")]
+    if not len(r):
+        return []
+    m, h = float(r["mean"].iloc[0]), float(r["half_width"].iloc[0])
+    revs = "?" if not prov else f"{prov.get('transient_revs')} + {prov.get('steady_revs')}"
+    overlap = abs(m - own["mean"]) <= h + own["half_width"]
+    return [f"Two values of the scene's f = 0 case: this report's own run gives {own['mean']:.4g} ± "
+            f"{own['half_width']:.2g} rad/s ({own['revs']} revolutions: transient + steady, the comparison "
+            f"table), the sensitivity study's run {m:.4g} ± {h:.2g} rad/s ({revs} revolutions). The model is "
+            "the same; the windows differ (a longer transient discarded, other revolutions averaged), so the "
+            "two are two estimates of one mean, and their intervals "
+            + ("overlap." if overlap else "do not overlap: the revolutions averaged are not yet steady enough "
+               "for either interval to hold alone.")]
 
 
 # ------------------------------------------------------------------------------------- report
