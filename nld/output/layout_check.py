@@ -126,17 +126,22 @@ def check_page(page, number: int = 1) -> list[Defect]:
     spans = _spans(page)
     drawings = page.get_drawings()
     out: list[Defect] = []
-    # the footer: the last pieces of text drawn, on the bottom band (report._footer draws three)
-    foot = [s for s in spans if s.y1 > H - FOOTER_PT and s.y0 > H - FOOTER_PT - 8]
-    foot_seq = sorted(s.seqno for s in spans)[-3:] if spans else []
-    for s in spans:
-        s.footer = s.seqno in foot_seq and s in foot
+    # the footer (report._footer): the line of "page i of N" on the bottom band, drawn last; the
+    # band is checked only on pages that have one
+    import re
+    pages = [s for s in spans if s.y0 > H - FOOTER_PT and re.fullmatch(r"page \d+ of \d+", s.text)]
+    has_footer = bool(pages)
+    if pages:
+        p = max(pages, key=lambda s: s.seqno)
+        first = min(s.seqno for s in spans if abs(s.y1 - p.y1) < 1.0 and s.y0 > H - FOOTER_PT - 8)
+        for s in spans:
+            s.footer = abs(s.y1 - p.y1) < 1.0 and s.seqno >= first - 1e-9 and s.y0 > H - FOOTER_PT - 8
 
     # text off the page, or in the footer band
     for s in spans:
         if s.x0 < -TOL or s.y0 < -TOL or s.x1 > W + TOL or s.y1 > H + TOL:
             out.append(Defect(number, "off-page", f"{_short(s.text)} runs off the page"))
-        elif not s.footer and s.y1 > H - FOOTER_PT + TOL:
+        elif has_footer and not s.footer and s.y1 > H - FOOTER_PT + TOL:
             out.append(Defect(number, "off-page", f"{_short(s.text)} runs into the footer"))
 
     # text over text
@@ -156,9 +161,12 @@ def check_page(page, number: int = 1) -> list[Defect]:
              if d.get("type") == "fs" and d["items"] and all(it[0] == "re" for it in d["items"])
              and d["rect"].width > 4 and d["rect"].height > 4]
     for s in spans:
-        home = [r for r in cells if _contains_point(r, s.cx, s.cy)]
+        # its cell: the one it overlaps most (a right-aligned value spilling left has its centre
+        # outside its own cell)
+        home = [(max(_overlap(s, r)[0], 0.0) * max(_overlap(s, r)[1], 0.0), r) for r in cells]
+        home = [(a, r) for a, r in home if a > 0]
         if home:
-            r = min(home, key=lambda r: r.width * r.height)
+            r = max(home, key=lambda ar: (ar[0], -ar[1].width * ar[1].height))[1]
             if not _inside(s, r, tol=0.5):
                 out.append(Defect(number, "cell-overflow", f"{_short(s.text)} crosses its table cell"))
 

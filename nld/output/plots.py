@@ -358,13 +358,13 @@ def fit_texts(fig) -> bool:
         if size <= room_px * 1.001:
             return
         longest = max(s.split("\n"), key=len)
-        chars = max(8, int(len(longest) * room_px / size * 0.95))
+        chars = max(14, int(len(longest) * room_px / size * 0.95))
         new = "\n".join(split_value(s, chars))
         if new != s:
             t.set_text(new)
             changed = True
 
-    for ax in fig.axes:
+    for ax in [a for ax0 in fig.axes for a in (ax0, *getattr(ax0, "child_axes", []))]:
         if not ax.get_visible() or not ax.axison:
             continue
         bb = ax.get_window_extent(r)
@@ -419,17 +419,17 @@ def _covered(bb, pts, text_boxes, pad: float) -> int:
     return n
 
 
-def place_legends(fig) -> bool:
+def place_legends(fig) -> list:
     """Move every panel legend that covers data (a line vertex, marker or text under its box) to
-    a corner of the panel where it covers none, or else under the panel, below its axis label, in
-    as many columns as the panel's width holds. True when a legend was moved."""
-    from matplotlib.transforms import offset_copy
+    a corner of the panel where it covers none. Legends with no free corner are taken off their
+    panel: returned as ``[(handle, label), ...]`` for one legend of the figure, under the panels
+    (:func:`figure_legend`)."""
     r = _renderer(fig)
     px_per_pt = fig.dpi / 72.0
-    moved = False
+    out = []
     for ax in fig.axes:
         leg = ax.get_legend()
-        if leg is None or not leg.get_visible() or getattr(leg, "_nld_outside", False):
+        if leg is None or not leg.get_visible():
             continue
         axbb = ax.get_window_extent(r)
         bb = leg.get_window_extent(r)
@@ -451,30 +451,36 @@ def place_legends(fig) -> bool:
                 done = True
                 break
         if not done:
-            _legend_below(ax, leg, r, offset_copy)
-        moved = True
-    return moved
+            mine = dict(zip(*ax.get_legend_handles_labels()[::-1]))
+            for h, t in zip(leg.legend_handles, leg.get_texts()):
+                lab = t.get_text()
+                out.append((mine.get(lab.replace("\n", " "), mine.get(lab, h)), lab.replace("\n", " ")))
+            leg.remove()
+    return out
 
 
-def _legend_below(ax, leg, r, offset_copy) -> None:
-    handles = list(leg.legend_handles)
-    labels = [t.get_text() for t in leg.get_texts()]
-    size = leg.get_texts()[0].get_fontsize() if leg.get_texts() else 7.5
-    title = leg.get_title().get_text() or None
-    markerscale = getattr(leg, "markerscale", 1.0)
-    leg.set_visible(False)
-    tight = ax.get_tightbbox(r)
-    axbb = ax.get_window_extent(r)
-    drop_pt = (axbb.y0 - tight.y0) * 72.0 / ax.figure.dpi + 2.0
-    anchor = offset_copy(ax.transAxes, fig=ax.figure, x=0.0, y=-drop_pt, units="points")
-    leg.remove()
+def figure_legend(fig, entries, bottom: float, size: float = 7.5):
+    """One legend of the figure from ``entries`` [(handle, label)] (the same label once), centred
+    under the panels with its lower edge at ``bottom`` (figure fraction), in as many columns as the
+    page's width holds; returns its height as a figure fraction."""
+    seen, handles, labels = set(), [], []
+    for h, lab in entries:
+        if lab not in seen:
+            seen.add(lab)
+            handles.append(h)
+            labels.append(lab)
+    old = getattr(fig, "_nld_legend", None)
+    if old is not None:
+        old.remove()
+    r = _renderer(fig)
     ncol = len(labels)
     while True:
-        new = ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0),
-                        bbox_transform=anchor, ncols=max(ncol, 1), fontsize=size, title=title,
-                        markerscale=markerscale, frameon=False)
-        if ncol <= 1 or new.get_window_extent(r).width <= axbb.width:
+        leg = fig.legend(handles, labels, loc="lower center", bbox_to_anchor=(0.5, bottom), ncols=max(ncol, 1),
+                         fontsize=size, frameon=False)
+        w = leg.get_window_extent(r).width
+        if ncol <= 1 or w <= 0.92 * fig.bbox.width:
             break
-        new.remove()
+        leg.remove()
         ncol -= 1
-    new._nld_outside = True
+    fig._nld_legend = leg
+    return leg.get_window_extent(r).height / fig.bbox.height

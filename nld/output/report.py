@@ -177,13 +177,13 @@ _BREAK = None
 
 def split_value(text: str, width: int) -> list[str]:
     """``text`` in lines of at most ``width`` characters where it can be, broken only at sensible
-    points: after a space, ``_``, ``/``, ``,``, ``;``, ``=`` or a ``.`` followed by a letter (module
+    points: after a space, ``_``, ``/``, ``,``, ``;`` or a ``.`` between lower-case letters (module
     paths, file names), never inside a word or a number; a token longer than ``width`` stays whole.
     Line breaks already in the text are kept."""
     import re
     global _BREAK
     if _BREAK is None:
-        _BREAK = re.compile(r"(?<=[ _/,;])|(?<=\.)(?=[A-Za-z_])")
+        _BREAK = re.compile(r"(?<=[ _/,;])|(?<=[a-z]\.)(?=[a-z_])")
     out: list[str] = []
     for line in str(text).split("\n"):
         tokens = [t for t in _BREAK.split(line) if t]
@@ -369,15 +369,24 @@ class Report:
                     warnings.simplefilter("ignore", UserWarning)   # tight_layout's "not compatible"
                     fig.tight_layout(rect=(0.01, bottom, 0.99, top))
             else:
+                if hasattr(engine, "set") and "rect" in getattr(engine, "_params", {}):
+                    engine.set(rect=(0.0, bottom, 1.0, top - bottom))     # keep the caption free
                 fig.draw_without_rendering()
         # titles and labels longer than their panel are split into lines; a legend over data goes
-        # to a free corner or under its panel (nld.output.plots); the layout is redone after each
-        from nld.output.plots import fit_texts, place_legends
+        # to a free corner of its panel, or else into one legend of the figure under the panels
+        # (nld.output.plots); the layout is redone after each change
+        from nld.output.plots import figure_legend, fit_texts, place_legends
+        fit_texts(fig)
         layout()
+        moved: list = []
         for _ in range(3):
             changed = fit_texts(fig)
-            changed = place_legends(fig) or changed
-            if not changed:
+            new = place_legends(fig)
+            if new:
+                moved += new
+                h = figure_legend(fig, moved, bottom)
+                bottom = min(bottom + h + 0.01, 0.6)
+            if not (changed or new):
                 break
             layout()
         self._pages.append(fig)
@@ -587,9 +596,9 @@ class Report:
                              fontweight="bold" if self.highlight_subtitle else "normal")
                 from nld.output.provenance import git_hash
                 if "+dirty" in git_hash():
-                    fig.text(1 - _MARGIN, 0.955 - 0.042 * len(title) - 0.01,
-                             "made from a source tree with uncommitted changes (git +dirty)",
-                             fontsize=10, va="top", ha="right", color="#b00000", fontweight="bold")
+                    fig.text(1 - _MARGIN, 0.992, "made from a source tree with uncommitted changes "
+                             "(git +dirty)", fontsize=9, va="top", ha="right", color="#b00000",
+                             fontweight="bold")
                 for c, part in enumerate(run_cols):
                     fig.text(_MARGIN + c * 0.47, top - 0.04, "\n".join(part), fontsize=8.3,
                              family="monospace", va="top", ha="left", linespacing=1.5)
