@@ -261,6 +261,47 @@ def zero_crossings(pts: pd.DataFrame, log: bool):
     return out
 
 
+def verdict_counts(points: dict) -> dict:
+    """Points per class over all sweeps, each point in exactly one class (a failed run is
+    "failed", else its verdict), so that the counts add up to the number of points."""
+    out: dict = {}
+    for pts in points.values():
+        cls = np.where(pts["status"].to_numpy() != "ok", "failed", pts["verdict"].astype(str).to_numpy())
+        for c in cls:
+            out[str(c)] = out.get(str(c), 0) + 1
+    return out
+
+
+def tally_text(counts: dict) -> str:
+    """"Of N points, a are chaotic, b regular, ...": every class with a count, largest first after
+    chaotic and regular, so that the parts add up to N."""
+    n = sum(counts.values())
+    order = ["chaotic", "regular"] + sorted((k for k in counts if k not in ("chaotic", "regular")),
+                                            key=lambda k: -counts[k])
+    parts = [f"{counts.get(k, 0)} {k}" for k in order if k in ("chaotic", "regular") or counts.get(k)]
+    return f"Of {n} points, " + ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
+
+
+def check_uncertainty(lam: float, unc: float, checks) -> float:
+    """The uncertainty of an exponent ``lam`` ± ``unc`` that a tolerance check recomputed as
+    ``checks`` (the other runs' values): the estimator's own uncertainty and the largest distance
+    to a check run added in quadrature, so that the stated interval covers the spread between the
+    runs (a check that moves λ1 by 0.012 cannot leave it at ± 1e-7)."""
+    c = np.asarray([x for x in np.atleast_1d(np.asarray(checks, dtype=float)) if np.isfinite(x)])
+    spread = float(np.max(np.abs(c - lam))) if c.size else 0.0
+    return float(math.hypot(unc if np.isfinite(unc) else 0.0, spread))
+
+
+def _with_check(tolcheck) -> pd.DataFrame:
+    """The tolerance-check table with ``unc_with_check_per_rev`` (:func:`check_uncertainty`)."""
+    tc = tolcheck.copy()
+    cols = [f"lambda {_tc_key(est, rt)}" for est, rt in TOL_CHECK]
+    tc["unc_with_check_per_rev"] = [
+        check_uncertainty(r["sweep_lambda_per_rev"], r["sweep_unc_per_rev"], [r[c] for c in cols if c in r])
+        for _, r in tc.iterrows()]
+    return tc
+
+
 def summary_table(points: dict) -> pd.DataFrame:
     rows = []
     for name, pts in points.items():
@@ -633,9 +674,7 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
     reg, cha = states.get("regular"), states.get("chaotic")
     found = [
         "What we find:",
-        f"- Both regimes exist. Of {int(s['points'].sum())} points, {int(s['chaotic'].sum())} are chaotic, "
-        f"{int(s['regular'].sum())} regular and {int(s['uncertain'].sum())} undecided"
-        + (f", {int(s['failed'].sum())} failed" if int(s['failed'].sum()) else "") + ". "
+        f"- Both regimes exist. {tally_text(verdict_counts(points))}. "
         f"At the scene's own point (5000 rpm, c = 0.5 mm, μ = 0.1) λ1 = {_f(base_sp['lambda_per_rev'])} ± "
         f"{_f(base_sp['lambda_unc_per_rev'], digits=2)} per revolution ({base_sp['verdict']}).",
         f"- Crank speed: λ1 from {_f(s.loc['speed', 'min_lambda_per_rev'])} (at "
@@ -690,8 +729,12 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
         for _, r in tolcheck.iterrows():
             vals = ", ".join(f"{_f(r[f'lambda {_tc_key(est, rt)}'])} ({est}, rtol {rt:g})"
                              for est, rt in TOL_CHECK)
-            parts.append(f"{r['sweep']} sweep at {_fmt_value(r['sweep'], r['value'])}: {vals}")
-        found.append("- Tolerance check of the largest exponent of each sweep: " + "; ".join(parts) + ".")
+            u = check_uncertainty(r["sweep_lambda_per_rev"], r["sweep_unc_per_rev"],
+                                  [r[f"lambda {_tc_key(est, rt)}"] for est, rt in TOL_CHECK])
+            parts.append(f"{r['sweep']} sweep at {_fmt_value(r['sweep'], r['value'])}: {vals}; so λ1 = "
+                         f"{_f(r['sweep_lambda_per_rev'])} ± {_f(u, digits=2)}")
+        found.append("- Tolerance check of the largest exponent of each sweep (the uncertainty stated with it "
+                     "includes the spread between the check runs): " + "; ".join(parts) + ".")
     onset = ["Where chaos sets in (per sweep):", *_onset_lines(points)]
     allp = pd.concat(points.values(), ignore_index=True)
     big = allp[allp["lambda_per_rev"] > LAMBDA_CLIP]
@@ -979,9 +1022,11 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
             if name == "friction" and route is not None:
                 route_pages(rep, route, sweeps[name], "B.ex", label="friction coefficient μ",
                             scale=1e3, unit="mm")
-        tc = tolcheck.copy()
+        tc = _with_check(tolcheck)
+        tc.insert(4, "unc_with_check_per_rev", tc.pop("unc_with_check_per_rev"))
         tc["value"] = [_fmt_value(n, v) for n, v in zip(tc["sweep"], tc["value"])]
-        ren = {"sweep_lambda_per_rev": "λ1 (sweep)", "sweep_unc_per_rev": "± (sweep)"}
+        ren = {"sweep_lambda_per_rev": "λ1 (sweep)", "sweep_unc_per_rev": "± (sweep)",
+               "unc_with_check_per_rev": "± with the check"}
         for est, rt in TOL_CHECK:
             key = _tc_key(est, rt)
             ren[f"lambda {key}"] = f"λ1 {_tc_label(est, rt)}"
@@ -992,7 +1037,9 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
                   notes=["For the point with the largest λ1 of each sweep: λ1 per revolution recomputed from the "
                          "end of a fresh section of the same length by the tangent estimator at the rtol given in "
                          "the header, and (B) by the two-trajectory estimator (Benettin, d0 = 1e-4 in the scaled "
-                         "norm), an independent check. The sweeps use the tangent estimator at rtol "
+                         "norm), an independent check. '± with the check': the sweep's uncertainty and the "
+                         "largest distance to a check run in quadrature (the interval to quote). "
+                         "The sweeps use the tangent estimator at rtol "
                          f"{st['lyap_rtol']:g}. A sign that changes with the tolerance is a numerical artefact, not "
                          f"chaos. Stored in {STEM}_tolcheck.csv. Settings of each column, from its results: "
                          + " | ".join(f"{_tc_label(*k.split(' rtol=')[0:1], float(k.split('rtol=')[1]))}: {v}"
