@@ -407,14 +407,18 @@ def _fig_case(rep, name, df, info, rec):
     with rep.style():
         fig, axes = rep.subplots(2, 2, title=f"Work-precision: {name}")
         for ax, (col, tcol, lab) in zip(axes.flat, PANELS):
+            placed = []          # (log x, log y) of the rtol labels: one label where curves start together
             for m in df.method.unique():
                 d = df[(df.method == m) & df[col].notna() & df[tcol].notna()].sort_values("rtol", ascending=False)
                 if not len(d):
                     continue
                 y = np.maximum(d[col].to_numpy(float), 1e-16)
                 ax.loglog(d[tcol] * 1e3, y, marker=MARKERS.get(m, "o"), color=COLORS.get(m), ms=4, label=m)
-                ax.annotate(f"{d.rtol.iloc[0]:.0e}", (d[tcol].iloc[0] * 1e3, y[0]), fontsize=6.5,
-                            color=COLORS.get(m), xytext=(2, 2), textcoords="offset points")
+                at = (math.log10(max(float(d[tcol].iloc[0]) * 1e3, 1e-300)), math.log10(float(y[0])))
+                if not any(abs(at[0] - a) < 0.12 and abs(at[1] - b) < 0.25 for a, b in placed):
+                    placed.append(at)
+                    ax.annotate(f"{d.rtol.iloc[0]:.0e}", (d[tcol].iloc[0] * 1e3, y[0]), fontsize=6.5,
+                                color=COLORS.get(m), xytext=(2, 2), textcoords="offset points")
             if col == "journal_err_rel":
                 ax.axhline(REC_JOURNAL, color="k", ls=":", lw=0.8, label="criterion")
             if col == "peak_force_err":
@@ -445,7 +449,7 @@ def _fig_case(rep, name, df, info, rec):
         f"{info['label']}. Window: first {info['window_revs']:g} crank revolution(s) "
         f"(period {info['period_s'] * 1e3:.3f} ms); long run: {info['long_revs']} revolutions, Poincaré points "
         f"after {info['transient_revs']}. Each curve is one method over the rtol ladder (the loosest rtol is "
-        f"labelled); errors against a different method at rtol {REF_RTOL:g} ({', '.join(info['references'])}); "
+        f"labelled, once where curves start together); errors against a different method at rtol {REF_RTOL:g} ({', '.join(info['references'])}); "
         f"{rf}. Dotted: the recommendation criterion; red star: the recommended setting. Errors below 1e-16 "
         f"are drawn at 1e-16."))
 

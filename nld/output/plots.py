@@ -368,9 +368,16 @@ def fit_texts(fig) -> bool:
         if not ax.get_visible() or not ax.axison:
             continue
         bb = ax.get_window_extent(r)
+        room = bb.width                 # a title may use its panel's grid cell (square panels)
+        ss = ax.get_subplotspec() if hasattr(ax, "get_subplotspec") else None
+        if ss is not None:
+            gs = ss.get_gridspec()
+            ncols = gs.get_geometry()[1]
+            span = ss.colspan.stop - ss.colspan.start
+            room = max(room, 0.9 * fig.bbox.width * span / ncols * 0.9)
         for t in (ax.title, getattr(ax, "_left_title", None), getattr(ax, "_right_title", None)):
             if t is not None:
-                fit(t, bb.width)
+                fit(t, room)
         fit(ax.xaxis.label, bb.width)
         fit(ax.yaxis.label, bb.height, vertical=True)
         leg = ax.get_legend()
@@ -384,35 +391,40 @@ def fit_texts(fig) -> bool:
 
 
 def _data_points(ax):
-    """Display coordinates (pixels) of what an axes draws: line vertices, markers and collection
-    offsets, patch corners, and the corners of its texts."""
-    pts = []
+    """``[(points, radius)]``: display coordinates (pixels) of what an axes draws (line vertices,
+    markers and collection offsets, patch corners) with the radius of their markers (pixels)."""
+    px = ax.figure.dpi / 72.0
+    out = []
     for ln in ax.lines:
         if ln.get_visible() and len(ln.get_xydata()):
-            pts.append(ln.get_transform().transform(ln.get_xydata()))
+            m = ln.get_marker()
+            rad = 0.5 * ln.get_markersize() * px if m not in (None, "None", "", " ", ",") else 0.0
+            out.append((ln.get_transform().transform(ln.get_xydata()), rad))
     for c in ax.collections:
         if not c.get_visible():
             continue
         off = c.get_offsets()
+        sizes = c.get_sizes() if hasattr(c, "get_sizes") else []
+        rad = 0.5 * math.sqrt(float(np.max(sizes))) * px if len(sizes) else 0.0
         if off is not None and len(off):
-            pts.append(c.get_offset_transform().transform(np.asarray(off, dtype=float)))
+            out.append((c.get_offset_transform().transform(np.asarray(off, dtype=float)), rad))
         tr = c.get_transform()
         for p in c.get_paths()[:2000]:
             if len(p.vertices) and (off is None or len(off) <= 1):
-                pts.append(tr.transform(p.vertices))
+                out.append((tr.transform(p.vertices), 0.0))
     for p in ax.patches:
         if p.get_visible():
-            pts.append(p.get_transform().transform(p.get_path().vertices))
-    return np.concatenate([q for q in pts if q.ndim == 2 and q.shape[1] == 2]) if pts else np.zeros((0, 2))
+            out.append((p.get_transform().transform(p.get_path().vertices), 0.0))
+    return [(q, r) for q, r in out if q.ndim == 2 and q.shape[1] == 2]
 
 
 def _covered(bb, pts, text_boxes, pad: float) -> int:
-    x0, y0, x1, y1 = bb.x0 + pad, bb.y0 + pad, bb.x1 - pad, bb.y1 - pad
     n = 0
-    if len(pts):
-        ok = np.isfinite(pts).all(axis=1)
-        p = pts[ok]
+    for q, rad in pts:
+        x0, y0, x1, y1 = bb.x0 + pad - rad, bb.y0 + pad - rad, bb.x1 - pad + rad, bb.y1 - pad + rad
+        p = q[np.isfinite(q).all(axis=1)]
         n += int(((p[:, 0] > x0) & (p[:, 0] < x1) & (p[:, 1] > y0) & (p[:, 1] < y1)).sum())
+    x0, y0, x1, y1 = bb.x0 + pad, bb.y0 + pad, bb.x1 - pad, bb.y1 - pad
     for t in text_boxes:
         if min(x1, t.x1) > max(x0, t.x0) and min(y1, t.y1) > max(y0, t.y0):
             n += 1

@@ -360,17 +360,27 @@ class Report:
             fig.text(_MARGIN, _FOOTER_H + 0.012, "\n".join(lines), fontsize=8.5, va="bottom", ha="left",
                      linespacing=1.3)
         top = _TOP - 0.005 if fig.get_suptitle() else 0.985
+        if fig.get_layout_engine() is None and not any(ax.get_subplotspec() is None for ax in fig.axes):
+            # constrained layout: it places titles, labels, legends outside the panels and panels
+            # of fixed aspect exactly (tight_layout's one pass left titles over the labels above)
+            fig.set_layout_engine("constrained", h_pad=0.03, w_pad=0.03)
         engine = fig.get_layout_engine()
 
         def layout():
+            top_ = top
+            sup = getattr(fig, "_suptitle", None)
+            if sup is not None and sup.get_text():       # a page title of two lines: panels below it
+                from nld.output.plots import _renderer
+                sup.set_in_layout(False)
+                top_ = min(top, sup.get_window_extent(_renderer(fig)).y0 / fig.bbox.height - 0.012)
             if engine is None:
                 import warnings
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", UserWarning)   # tight_layout's "not compatible"
-                    fig.tight_layout(rect=(0.01, bottom, 0.99, top))
+                    fig.tight_layout(rect=(0.01, bottom, 0.99, top_))
             else:
                 if hasattr(engine, "set") and "rect" in getattr(engine, "_params", {}):
-                    engine.set(rect=(0.0, bottom, 1.0, top - bottom))     # keep the caption free
+                    engine.set(rect=(0.01, bottom, 0.98, top_ - bottom))  # keep the caption free
                 fig.draw_without_rendering()
         # titles and labels longer than their panel are split into lines; a legend over data goes
         # to a free corner of its panel, or else into one legend of the figure under the panels
@@ -389,6 +399,13 @@ class Report:
             if not (changed or new):
                 break
             layout()
+        else:                                  # the last layout moved the panels: legends again
+            new = place_legends(fig)
+            if new:
+                moved += new
+                bottom = min(bottom + figure_legend(fig, moved, bottom) + 0.01, 0.6)
+                layout()
+                place_legends(fig)
         self._pages.append(fig)
 
     def text_page(self, title: str, paragraphs) -> None:
