@@ -433,6 +433,7 @@ def _fig_case(rep, name, df, info, rec):
                 if len(r) and r[col].notna().all():
                     ax.plot(r.cpu_s * 1e3, np.maximum(r[col], 1e-16), marker="*", ms=13, color="red",
                             ls="", label="recommended", zorder=5)
+            ax.margins(0.15)        # room for the rtol labels inside the panel
             xl = "CPU time of the window run [ms]" if tcol == "cpu_s" else "CPU time of the long run [ms]"
             ax.set_xlabel(xl)
             ax.set_ylabel(lab)

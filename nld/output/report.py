@@ -350,8 +350,11 @@ class Report:
         return fig, axes
 
     def figure(self, fig, caption: str | None = None) -> None:
-        """Add a matplotlib Figure as one page (resized to the page; tight layout unless it has a
-        layout engine already); ``caption``: text printed under the plots."""
+        """Add a matplotlib Figure as one page (resized to the page; constrained layout unless it
+        has a layout engine already, or panels placed by hand or a colorbar: tight layout then;
+        titles and labels fitted to their panels and legends kept off the data, see
+        :func:`nld.output.plots.fit_texts` and :func:`~nld.output.plots.place_legends`);
+        ``caption``: text printed under the plots."""
         fig.set_size_inches(*PAGE_SIZE)
         bottom = _FOOTER_H + 0.01
         if caption:
@@ -360,7 +363,8 @@ class Report:
             fig.text(_MARGIN, _FOOTER_H + 0.012, "\n".join(lines), fontsize=8.5, va="bottom", ha="left",
                      linespacing=1.3)
         top = _TOP - 0.005 if fig.get_suptitle() else 0.985
-        if fig.get_layout_engine() is None and not any(ax.get_subplotspec() is None for ax in fig.axes):
+        if fig.get_layout_engine() is None and not any(ax.get_subplotspec() is None
+                                                       or ax.get_label() == "<colorbar>" for ax in fig.axes):
             # constrained layout: it places titles, labels, legends outside the panels and panels
             # of fixed aspect exactly (tight_layout's one pass left titles over the labels above)
             fig.set_layout_engine("constrained", h_pad=0.03, w_pad=0.03)
@@ -387,7 +391,14 @@ class Report:
         # (nld.output.plots); the layout is redone after each change
         from nld.output.plots import figure_legend, fit_texts, place_legends
         fit_texts(fig)
-        layout()
+        try:
+            layout()
+        except (ZeroDivisionError, ValueError, RuntimeError):
+            # constrained layout cannot place some figures (a colorbar added to a grid it did
+            # not make): tight_layout then, as before
+            fig._layout_engine = None          # back to no engine (set_layout_engine refuses)
+            engine = None
+            layout()
         moved: list = []
         for _ in range(3):
             changed = fit_texts(fig)
