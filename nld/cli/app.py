@@ -51,7 +51,7 @@ def main(argv=None) -> int:
     interrupt._RECEIVED.clear()
     try:
         try:
-            args = parse(build_parser(), values_with_minus(argv))
+            args = parse(build_parser(), argv)
         except SystemExit as e:          # --help, --version
             return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
         args.command_line = shlex.join([PROG] + [str(a) for a in argv])
@@ -112,25 +112,3 @@ def quiet_stdout() -> None:
             sys.stdout = open(os.devnull, "w")
         except OSError:
             pass
-
-
-NEG_VALUE_OPTS = ("--values", "--x-values", "--y-values", "--angle", "--set")
-
-
-def values_with_minus(argv: list[str]) -> list[str]:
-    """``--values -1:-5:2`` -> ``--values=-1:-5:2``: argparse takes a value starting with '-'
-    for an option unless it looks like a plain negative number."""
-    out, i = [], 0
-    while i < len(argv):
-        a = argv[i]
-        if a == "--":
-            out.extend(argv[i:])
-            break
-        if a in NEG_VALUE_OPTS and i + 1 < len(argv) and argv[i + 1].startswith("-") \
-                and len(argv[i + 1]) > 1 and (argv[i + 1][1].isdigit() or argv[i + 1][1] == "."):
-            out.append(f"{a}={argv[i + 1]}")
-            i += 2
-            continue
-        out.append(a)
-        i += 1
-    return out
