@@ -60,6 +60,11 @@ class Interrupted(Picklable, KeyboardInterrupt):
         self.kept = kept
 
 
+class OutputError(Picklable, OSError):
+    """A result file that could not be written (a full disk, a folder without write permission):
+    the message names the file and what was kept. Exit status 1 on the command line."""
+
+
 class InputTypeError(InputError, TypeError):
     """An argument of the wrong type (``revs='abc'``, ``scene=None``): both an InputError (a
     ValueError) and a TypeError, so either ``except`` catches it."""

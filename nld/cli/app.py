@@ -11,7 +11,7 @@ import sys
 from nld.cli import attractors, bifurcation, chaos_map, control, hard_cases, lyapunov, orbits, poincare, \
     scenes, simulate, spectrum, study
 from nld.cli.args import PROG, Parser, UsageError, print_error, print_interrupted, progress_args
-from nld.errors import InputError, Interrupted, SceneError, SolveError
+from nld.errors import InputError, Interrupted, OutputError, SceneError, SolveError
 from nld.version import __version__
 
 # the sub-commands in the order of ``nld --help``
@@ -81,6 +81,12 @@ def main(argv=None) -> int:
     except BrokenPipeError:               # e.g. `nld scenes | head -1`
         quiet_stdout()
         return 141
+    except OutputError as e:              # a result file that could not be written: named
+        try:
+            print_error(e)
+        except OSError:
+            pass
+        return 1
     except MemoryError:
         print_error("out of memory: the run is too large for this machine (fewer revolutions or samples)")
         return 2
