@@ -10,7 +10,8 @@ import pickle
 import pytest
 
 import nld.errors as errors
-from nld.errors import AssemblyError, InputError, InputTypeError, Interrupted, SceneError, SolveError
+from nld.errors import (AssemblyError, InputError, InputTypeError, Interrupted, OutputError, SceneError,
+                        SolveError)
 from nld.model.ideal import NotClosed
 from nld.sweeps.executors import execute
 
@@ -22,6 +23,7 @@ ERRORS = [
     AssemblyError("scene 'four_bar' cannot be assembled", "B", 0.6),
     Interrupted("interrupted after 3 of 9 points", partial=[1, 2, 3], kept="3 of 9 points kept"),
     NotClosed("Newton-Raphson did not converge", "C", 0.7),
+    OutputError("cannot write the point file x: No space left on device"),
 ]
 
 
@@ -41,15 +43,13 @@ def test_errors_survive_pickling(e):
         assert (back.path, back.value, back.allowed) == ("joints.B.clearance", -1e-3, "must be >= 0 (m)")
 
 
-class _Unpicklable(Exception):
-    def __init__(self, a, b):
-        super().__init__(f"{a} and {b}")
-
-
-def test_an_error_that_cannot_be_rebuilt_becomes_a_runtime_error_with_its_message():
+def test_an_error_that_cannot_be_pickled_becomes_a_runtime_error_with_its_message():
+    import threading
     from nld.sweeps.executors import portable
-    e = portable(_Unpicklable("x", "y"))
-    assert isinstance(e, RuntimeError) and "_Unpicklable" in str(e) and "x and y" in str(e)
+    bad = ValueError("x and y")
+    bad.lock = threading.Lock()          # cannot be pickled
+    e = portable(bad)
+    assert isinstance(e, RuntimeError) and "ValueError" in str(e) and "x and y" in str(e)
     ok = SceneError("a", 1, "b")
     assert portable(ok) is ok
 

@@ -32,7 +32,7 @@ import os
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from nld.errors import InputError
-from nld.interrupt import end_pool
+from nld.interrupt import end_pool, spawning
 
 __all__ = ["execute", "serial", "process_pool", "on_dask", "dask_client", "batches",
            "check_workers", "portable", "FORWARDED_ENV"]
@@ -139,7 +139,8 @@ def process_pool(fn, payload, items, *, workers: int, batch_size: int | None = N
                              initializer=_init_worker, initargs=(_env(), warm))
     futures = []
     try:
-        futures = [ex.submit(_run_batch, fn, payload, b, out) for b in parts]
+        with spawning():          # workers and the pool's threads start with SIGINT/SIGTERM blocked
+            futures = [ex.submit(_run_batch, fn, payload, b, out) for b in parts]
         for fut in as_completed(futures):
             yield from fut.result()
     except BaseException:
