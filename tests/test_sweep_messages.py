@@ -94,3 +94,17 @@ def test_failed_census_value_prints_its_reason(tmp_path, capsys):
     assert rc == 0
     line = next(ln for ln in out.splitlines() if ln.startswith("joints.B.clearance = 0"))
     assert "failed: " in line and "no free coordinates" in line
+
+
+def test_out_of_memory_names_the_command_not_a_guess(monkeypatch, capsys):
+    """A MemoryError the command did not foresee: one line naming the command line as given,
+    not a guess at its cause (it used to blame revolutions or samples, also for a tiny delay)."""
+    import nld.cli.simulate as sim_cli
+
+    def boom(args):
+        raise MemoryError
+    monkeypatch.setattr(sim_cli, "cmd_simulate", boom)
+    assert main(["simulate", "slider_crank", "--revs", "3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nld simulate slider_crank --revs 3" in err
+    assert "revolutions or samples" not in err

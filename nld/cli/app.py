@@ -88,7 +88,9 @@ def main(argv=None) -> int:
             pass
         return 1
     except MemoryError:
-        print_error("out of memory: the run is too large for this machine (fewer revolutions or samples)")
+        # the command cannot tell which option made the run too large: name what was asked
+        print_error(f"out of memory: {shlex.join([PROG] + [str(a) for a in argv])} needs more memory "
+                    "than this machine has; ask for a smaller run (the options that set its size)")
         return 2
     except OSError as e:
         # standard output (or a file written without nld.output.io) on a full or failing disk
