@@ -10,6 +10,7 @@
 """
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -115,3 +116,39 @@ def test_the_armed_interrupt_waits_until_the_compiled_call_returned():
         after.append(r)                  # raised at this line, back in the caller
     assert done == [3] and after == []
     assert sys.gettrace() is None
+
+
+START = '''
+import os, signal, sys
+class Hook:                       # a Ctrl-C while the commands' modules are imported
+    def find_spec(self, name, path=None, target=None):
+        if name == "nld.cli.app":
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+sys.meta_path.insert(0, Hook())
+from nld.cli import main
+sys.exit(main(["scenes"]))
+'''
+
+
+def test_ctrl_c_while_the_command_line_starts_is_one_line(tmp_path):
+    import subprocess
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    p = subprocess.run([sys.executable, "-c", START], env=env, cwd=tmp_path, capture_output=True,
+                       text=True, timeout=300, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert p.returncode == 130, p.stderr
+    assert p.stderr == "nld: interrupted: nothing kept (the command had not started)\n"
+
+
+def test_the_command_line_starts_without_the_heavy_modules(tmp_path):
+    """Until the handler is installed only light modules load (the window of a plain
+    KeyboardInterrupt traceback stays short): nld and nld.cli import no numpy, pandas, numba."""
+    import subprocess
+    root = Path(__file__).resolve().parent.parent
+    code = ("import sys, nld, nld.cli, nld.interrupt\n"
+            "print(sorted(m for m in ('numpy', 'pandas', 'numba', 'scipy') if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, PYTHONPATH=str(root)),
+                       cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "[]"
