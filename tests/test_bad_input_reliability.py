@@ -85,3 +85,14 @@ def test_diagnosis_is_the_same_under_two_blas_kernels():
         lines.append(r.stderr.strip())
     assert lines[0] == lines[1]
     assert "(gap 0.6 m)" in lines[0] and "at joint B" in lines[0]
+
+
+def test_no_geometric_reason_names_no_joint(monkeypatch):
+    """When every loop could close on its own but Newton found no configuration (here forced), the
+    error says so and names no joint and no gap, rather than a guess from the failed iterate."""
+    def no_newton(self, q0, t, where):
+        raise ideal.NotClosed("did not converge", "C", 0.7)
+    monkeypatch.setattr(ideal._Model, "newton", no_newton)
+    e = _assembly_error([])
+    assert e.joint is None and e.gap is None
+    assert "no loop is too long or too short" in str(e) and "angle0" in str(e)
