@@ -12,12 +12,14 @@ friction laws), ``nld.kernel`` (code generation and compilation), ``nld.integrat
 """
 from nld.version import __version__  # noqa: E402,F401
 
-from nld.run.simulate import SimulationResult, simulate  # noqa: E402,F401  (binds the function)
 
 
 def __getattr__(name):
-    # the rest of the public API is imported on first use
+    # the public API is imported on first use: ``import nld`` (and the command line's start, which
+    # installs its Ctrl-C handler right after it) stays quick; nld.simulate is the function
     import importlib
+    if name in ("simulate", "SimulationResult"):
+        return getattr(importlib.import_module("nld.run.simulate"), name)
     if name in ("load_scene", "builtin_scenes"):
         return getattr(importlib.import_module("nld.model.scene"), name)
     if name == "compile_scene":

@@ -29,6 +29,13 @@ Worker processes of sweeps and chaos maps ignore SIGINT (:func:`ignore_in_worker
 Ctrl-C reaches the whole process group, and the main process ends the pool itself (finished
 points are already on disk; the points in progress are lost and run again on resume).
 
+A pool starts inside :func:`spawning`: its workers and helper threads are created with SIGINT
+and SIGTERM blocked. A worker unblocks them once SIGINT is ignored (a Ctrl-C while it still imports
+cannot kill it with a traceback); the helper threads keep them blocked, so a signal sent to the
+process always reaches the main thread (a signal the kernel handed to a helper thread would not
+wake the main thread waiting for results in a lock: the Ctrl-C would wait for the next finished
+batch). A signal that arrives while the pool starts is delivered when it has started.
+
 SIGTERM (``kill``, a batch scheduler, a container stop, systemd) is handled like SIGINT: the
 command line's handler and :func:`deferred` take both, so a SIGTERM'd run stops the same way,
 ends its pool and keeps what finished; :func:`received` says which signal it was (the command
@@ -47,7 +54,7 @@ import sys
 import threading
 
 __all__ = ["deferred", "Deferral", "install", "ignore_in_worker", "in_main_thread", "received",
-           "SIGNALS", "end_pool", "called_from_compiled"]
+           "SIGNALS", "end_pool", "called_from_compiled", "spawning"]
 
 _NUMBA_DIR = None
 
@@ -135,8 +142,10 @@ def deferred():
     try:
         for sig in SIGNALS:
             # SIGTERM only where the command line took it (install); elsewhere its default
-            # action (the end of the process) is what a program using nld expects
-            if sig == signal.SIGINT or signal.getsignal(sig) is _cli_handler:
+            # action (the end of the process) is what a program using nld expects. An ignored
+            # SIGINT stays ignored (a pool worker: the main process ends the pool).
+            if (sig == signal.SIGINT and signal.getsignal(sig) is not signal.SIG_IGN) \
+                    or signal.getsignal(sig) is _cli_handler:
                 previous[sig] = signal.signal(sig, d._handler)
     except (ValueError, OSError):        # e.g. an embedded interpreter without signals
         for sig, h in previous.items():
@@ -155,18 +164,33 @@ def deferred():
         _DEFERRAL_STACK.pop()
         for sig, h in previous.items():
             signal.signal(sig, h)
-        prev = previous.get(received(), previous[signal.SIGINT])
+        prev = previous.get(received(), previous.get(signal.SIGINT))
         if d.requested and not d.handled and not raised and prev not in (signal.SIG_IGN, None):
             raise KeyboardInterrupt
 
 
+def _under_numba(frame) -> bool:
+    """``frame`` or one of its callers is numba's code (or marked :func:`called_from_compiled`):
+    Python code that compiled code is running, e.g. cloudpickle or numpy called by numba's
+    ``_numba_unpickle`` when its memo misses (the first call of a kernel in a process)."""
+    f = frame
+    while f is not None:
+        if _in_numba(f):
+            return True
+        f = f.f_back
+    return False
+
+
 def _arm_raise(frame) -> None:
     """Raise KeyboardInterrupt at the next line that Python runs outside numba's code: a trace
-    function on the frames below the interrupted one (the caller of the compiled function)."""
+    function on the frames below the interrupted one (the caller of the compiled function).
+    Not in a frame that numba's code called (a KeyboardInterrupt raised there is dropped or
+    crashes the boxing, and the request would be lost): only once no numba frame is left on the
+    stack, i.e. after the compiled call returned."""
     armed = []
 
     def tracer(fr, event, arg):
-        if _in_numba(fr):
+        if _under_numba(fr):
             return tracer
         sys.settrace(None)
         for f in armed:
@@ -208,14 +232,49 @@ def install() -> None:
 
 def ignore_in_worker() -> None:
     """A pool worker ignores SIGINT (the main process ends the pool, module docstring), keeps
-    SIGTERM's default action (end_pool sends it) and, on Linux, is killed when its parent dies."""
+    SIGTERM's default action (end_pool sends it) and, on Linux, is killed when its parent dies.
+    A worker started inside :func:`spawning` has both signals blocked until here: a Ctrl-C that
+    reached it while it imported is dropped (it is ignored now), a SIGTERM ends it now."""
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         if hasattr(signal, "SIGTERM"):
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
     except (ValueError, OSError):
         pass
+    if hasattr(signal, "pthread_sigmask"):
+        try:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
+        except (ValueError, OSError):
+            pass
     die_with_parent()
+
+
+@contextlib.contextmanager
+def spawning():
+    """Block SIGINT and SIGTERM in this thread while a pool starts its processes and threads
+    (main thread, POSIX; elsewhere nothing). Why:
+
+    * a spawned worker inherits the blocked mask through exec, so a Ctrl-C that reaches the whole
+      process group while the worker still imports (before :func:`ignore_in_worker`) cannot
+      kill it with a traceback on stderr (and break the pool);
+    * the pool's helper threads (the executor's manager and queue feeder threads) are created
+      with the mask too, so the kernel never hands a signal sent to the process to one of them:
+      it goes to the main thread, which may be blocked waiting for results and is only woken by
+      a signal delivered to itself (else the request waits for the next finished batch);
+    * a signal that arrives meanwhile stays pending and is delivered when the block ends: it
+      is not lost, it is handled in the caller (e.g. a KeyboardInterrupt that ends the pool)."""
+    if not (hasattr(signal, "pthread_sigmask") and in_main_thread()):
+        yield
+        return
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    except (ValueError, OSError):
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def die_with_parent() -> None:

@@ -355,7 +355,8 @@ def test_assembly_error_is_also_a_solve_error():
     with pytest.raises(SolveError) as ei:
         sim("four_bar", revs=0.1, overrides=["ground.points.C=[1.0, 0]"])
     assert isinstance(ei.value, AssemblyError) and ei.value.joint == "B"
-    assert ei.value.gap == pytest.approx(0.535, abs=0.01)
+    # the geometric gap: A = (0.05, 0) is 0.95 m from C = (1.0, 0); coupler + rocker = 0.35 m
+    assert ei.value.gap == pytest.approx(0.95 - 0.35, rel=1e-9)
 
 
 def test_map_with_a_correct_numba_jacobian_is_accepted():

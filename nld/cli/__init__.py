@@ -35,9 +35,32 @@ Every command takes ``--quiet`` (no progress bars) and ``--progress`` (progress 
 even when it is not a terminal); by default long work shows a bar only on a terminal
 (``nld.progress``).
 """
-from nld.cli.app import build_parser, main
-
 __all__ = ["main", "build_parser"]
+
+
+def main(argv=None) -> int:
+    """The command line (:func:`nld.cli.app.main`), its Ctrl-C handler installed before the
+    commands' modules are imported: a Ctrl-C (or SIGTERM) while they load (numpy, pandas: seconds
+    on a loaded machine) is one line and exit 128 + signal like any other, not a traceback."""
+    from nld import interrupt
+    interrupt._RECEIVED.clear()
+    try:
+        interrupt.install()
+        from nld.cli import app
+        return app.main(argv)
+    except KeyboardInterrupt:
+        import signal
+        import sys
+        sig = interrupt.received() or signal.SIGINT
+        head = "interrupted" if sig == signal.SIGINT else f"terminated by {signal.Signals(sig).name}"
+        print(f"nld: {head}: nothing kept (the command had not started)", file=sys.stderr, flush=True)
+        return 128 + int(sig)
+
+
+def build_parser():
+    """The parser of the whole command line (:func:`nld.cli.app.build_parser`)."""
+    from nld.cli.app import build_parser as build
+    return build()
 
 if __name__ == "__main__":
     import sys

@@ -11,7 +11,7 @@ import sys
 from nld.cli import attractors, bifurcation, chaos_map, control, hard_cases, lyapunov, orbits, poincare, \
     scenes, simulate, spectrum, study
 from nld.cli.args import PROG, Parser, UsageError, print_error, print_interrupted, progress_args
-from nld.errors import InputError, Interrupted, SceneError, SolveError
+from nld.errors import InputError, Interrupted, OutputError, SceneError, SolveError
 from nld.version import __version__
 
 # the sub-commands in the order of ``nld --help``
@@ -47,11 +47,11 @@ def main(argv=None) -> int:
     from nld import interrupt
     from nld import progress
     argv = list(sys.argv[1:] if argv is None else argv)
-    interrupt.install()
-    interrupt._RECEIVED.clear()
+    interrupt._RECEIVED.clear()           # before install: a signal from now on is counted
     try:
+        interrupt.install()               # inside the try: a Ctrl-C right after it is one line
         try:
-            args = parse(build_parser(), values_with_minus(argv))
+            args = parse(build_parser(), argv)
         except SystemExit as e:          # --help, --version
             return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
         args.command_line = shlex.join([PROG] + [str(a) for a in argv])
@@ -81,8 +81,16 @@ def main(argv=None) -> int:
     except BrokenPipeError:               # e.g. `nld scenes | head -1`
         quiet_stdout()
         return 141
+    except OutputError as e:              # a result file that could not be written: named
+        try:
+            print_error(e)
+        except OSError:
+            pass
+        return 1
     except MemoryError:
-        print_error("out of memory: the run is too large for this machine (fewer revolutions or samples)")
+        # the command cannot tell which option made the run too large: name what was asked
+        print_error(f"out of memory: {shlex.join([PROG] + [str(a) for a in argv])} needs more memory "
+                    "than this machine has; ask for a smaller run (the options that set its size)")
         return 2
     except OSError as e:
         # standard output (or a file written without nld.output.io) on a full or failing disk
@@ -112,25 +120,3 @@ def quiet_stdout() -> None:
             sys.stdout = open(os.devnull, "w")
         except OSError:
             pass
-
-
-NEG_VALUE_OPTS = ("--values", "--x-values", "--y-values", "--angle", "--set")
-
-
-def values_with_minus(argv: list[str]) -> list[str]:
-    """``--values -1:-5:2`` -> ``--values=-1:-5:2``: argparse takes a value starting with '-'
-    for an option unless it looks like a plain negative number."""
-    out, i = [], 0
-    while i < len(argv):
-        a = argv[i]
-        if a == "--":
-            out.extend(argv[i:])
-            break
-        if a in NEG_VALUE_OPTS and i + 1 < len(argv) and argv[i + 1].startswith("-") \
-                and len(argv[i + 1]) > 1 and (argv[i + 1][1].isdigit() or argv[i + 1][1] == "."):
-            out.append(f"{a}={argv[i + 1]}")
-            i += 2
-            continue
-        out.append(a)
-        i += 1
-    return out

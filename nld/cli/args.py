@@ -17,7 +17,22 @@ class UsageError(Exception):
     """An argparse error, turned into the one-line message of :func:`nld.cli.app.main`."""
 
 
+# a value that starts with '-' but is a number, a range or a list of numbers: -1e-3, -.5, -inf,
+# -Infinity, -nan, -0.5:0.5:3, -1,2 (argparse's own matcher takes only -12 and -1.5 as values)
+NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d|inf(inity)?\b|nan\b)", re.IGNORECASE)
+
+
 class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (:meth:`error`) and values that start with '-': every option
+    of every command takes ``--gain -inf``, ``--memory -1e-3``, ``--gains -0.5:0.5:3`` or
+    ``--values -1,2`` as its value (argparse would read those as unknown options and say
+    "expected one argument"). No nld option looks like a number, so nothing is lost."""
+
+    def _parse_optional(self, arg_string):
+        if NEGATIVE_VALUE.match(arg_string) and arg_string not in self._option_string_actions:
+            return None                 # a value (positional), not an option
+        return super()._parse_optional(arg_string)
+
     def error(self, message):       # one line instead of usage + message, see main()
         message = one_line(message)
         m = re.match(r"argument (\S+): (\1 = .*)", message)    # our type checks name the option

@@ -128,7 +128,9 @@ def _cmd_sweep(args) -> int:
         parts = [(f"#{int(r.label)} " if r.label >= 0 else "") + f"{r.kind} {r.fraction:.2f}" + (
             f" (λ1 {r.lambda1:.3g} ± {r.lambda1_uncertainty:.2g})"
             if math.isfinite(r.lambda1) else "") for r in g.itertuples() if r.label >= -1]
-        print(f"{args.param} = {v:g}: " + ("; ".join(parts) if parts else "failed"))
+        why = next((r.get("message") for r in records if r.get("value") == v and r.get("message")), "")
+        print(f"{args.param} = {v:g}: " + ("; ".join(parts) if parts else
+                                            f"failed: {why}" if why else "failed"))
     print(f"wrote {out / 'attractors.csv'} ({len(records)} values)")
     if plot is not None:
         from nld.output.plots import basin_fractions

@@ -547,10 +547,10 @@ def assemble(scene: Scene, t: float = 0.0, guess=None):
     q0 = mdl.initial_guess(t) if guess is None else np.asarray(guess, float).reshape(mdl.nb, 3)
     try:
         q, _ = mdl.newton(q0, t, f"at t = {t:g} s")
-    except NotClosed as e:
-        if guess is not None or e.joint is None:
+    except NotClosed:
+        if guess is not None:
             raise
-        raise cannot_assemble(mdl, e.joint, e.gap, t) from None
+        raise cannot_assemble(mdl, t) from None
     qe = mdl.extend(q[None])
     J = mdl.jac(qe)
     mdl.check_rank(J, f"at t = {t:g} s")
@@ -568,25 +568,26 @@ class NotClosed(SolveError):
         self.gap = gap
 
 
-def cannot_assemble(mdl, joint: str, gap: float, t: float) -> AssemblyError:
-    """The one-line error of a mechanism whose loop through ``joint`` does not close."""
+def cannot_assemble(mdl, t: float) -> AssemblyError:
+    """The one-line error of a mechanism that Newton-Raphson could not assemble at time t.
+
+    The loop that cannot close, its gap and the reason come from the geometry
+    (:func:`nld.model.closure.diagnose`), never from the failed iterate, whose largest residual
+    depends on rounding. When the geometry shows no loop that cannot close, the error says so and
+    names no joint (the angle0 hints may start too far from every configuration)."""
+    from nld.model.closure import diagnose
     sc = mdl.scene
-    if joint == "driver":
-        where = (f"the driven crank cannot reach driver.angle0 + speed t = "
-                 f"{float(mdl.driver_angle(t)):.6g} rad")
-    else:
-        loop = mdl.loop_of(joint)
-        bodies = []
-        for jn in loop:
-            for b in sc.joints[jn].bodies:
-                if b not in bodies:
-                    bodies.append(b)
-        where = (f"the loop of joints {'-'.join(loop)} (bodies {', '.join(bodies)}) does not close "
-                 f"at joint {joint} (gap {gap:.3g} m)")
-    return AssemblyError(f"scene {sc.name!r} cannot be assembled at t = {t:g} s: {where} with these "
-                         "link lengths and ground points; check the bodies' points and "
-                         "ground.points (or the angle0 hints, which pick the assembly branch)",
-                         joint, gap)
+    found = diagnose(mdl, t)
+    head = f"scene {sc.name!r} cannot be assembled at t = {t:g} s: "
+    if found is None:
+        return AssemblyError(head + "Newton-Raphson from the angle0 hints found no configuration that "
+                             "closes every joint, although no loop is too long or too short to close "
+                             "on its own; check the bodies' points, ground.points and the angle0 hints "
+                             "(they pick the assembly branch)")
+    return AssemblyError(head + f"the loop of joints {'-'.join(found.loop)} (bodies "
+                         f"{', '.join(found.bodies)}) does not close at joint {found.joint} "
+                         f"(gap {found.gap:.3g} m): {found.reason}; check the link lengths (the bodies' points) and "
+                         "ground.points", found.joint, found.gap)
 
 
 def ideal_solution(scene: Scene, times) -> pd.DataFrame:
@@ -628,10 +629,10 @@ def ideal_solution(scene: Scene, times) -> pd.DataFrame:
                 qk = np.tensordot(L, q[max(0, k - 3):k], axes=1)
         try:
             qk, _ = mdl.newton(qk, t[k], f"at t = {t[k]:g} s")
-        except NotClosed as e:
-            if k > 0 or e.joint is None:
+        except NotClosed:
+            if k > 0:
                 raise                 # the motion reached a locked configuration: a SolveError
-            raise cannot_assemble(mdl, e.joint, e.gap, float(t[0])) from None
+            raise cannot_assemble(mdl, float(t[0])) from None
         q[k] = qk
 
     qe = mdl.extend(q)

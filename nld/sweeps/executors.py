@@ -32,10 +32,10 @@ import os
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from nld.errors import InputError
-from nld.interrupt import end_pool
+from nld.interrupt import end_pool, spawning
 
 __all__ = ["execute", "serial", "process_pool", "on_dask", "dask_client", "batches",
-           "check_workers", "FORWARDED_ENV"]
+           "check_workers", "portable", "FORWARDED_ENV"]
 
 # environment variables a worker takes over from this process (where it has none of its own)
 FORWARDED_ENV = ("NLD_CACHE_DIR",)
@@ -93,7 +93,22 @@ def _run_one(fn, payload, item, out):
 
 
 def _run_batch(fn, payload, batch, out=None) -> list:
-    return [_run_one(fn, payload, item, out) for item in batch]
+    try:
+        return [_run_one(fn, payload, item, out) for item in batch]
+    except Exception as e:
+        raise portable(e) from None
+
+
+def portable(e: BaseException) -> BaseException:
+    """``e`` if it survives pickling (nld's errors do: nld.errors.Picklable), else a RuntimeError
+    with its class name and message: an error that cannot be rebuilt in the main process would
+    break the pool (BrokenProcessPool) and hide the worker's message."""
+    import pickle
+    try:
+        pickle.loads(pickle.dumps(e))
+        return e
+    except Exception:             # noqa: BLE001 - any failure to pickle or to rebuild
+        return RuntimeError(f"{type(e).__name__} in a worker process: {e}")
 
 
 def _env() -> dict:
@@ -124,7 +139,8 @@ def process_pool(fn, payload, items, *, workers: int, batch_size: int | None = N
                              initializer=_init_worker, initargs=(_env(), warm))
     futures = []
     try:
-        futures = [ex.submit(_run_batch, fn, payload, b, out) for b in parts]
+        with spawning():          # workers and the pool's threads start with SIGINT/SIGTERM blocked
+            futures = [ex.submit(_run_batch, fn, payload, b, out) for b in parts]
         for fut in as_completed(futures):
             yield from fut.result()
     except BaseException:

@@ -27,7 +27,7 @@ import json
 from pathlib import Path
 
 
-from nld.errors import InputError
+from nld.errors import InputError, OutputError
 from nld.output.io import json_default, write_atomic  # noqa: F401 (json_default re-exported)
 
 __all__ = ["ResultStore", "PROVENANCE", "META_KEY", "read_point", "json_default"]
@@ -51,6 +51,35 @@ def read_point(path) -> dict:
     meta = json.loads((t.schema.metadata or {}).get(META_KEY, b"{}").decode())
     meta["table"] = t.to_pandas()
     return meta
+
+
+# what produced a sweep directory -> the command that makes it, for the messages
+_LABELS = {"bifurcation": "nld bifurcation", "chaos_map": "nld chaos-map",
+           "census sweep": "nld attractors --param (a census sweep)"}
+_COMMANDS = {"bifurcation": "bifurcation", "chaos-map": "chaos_map", "attractors": "census sweep"}
+
+
+def producer(provenance: dict, what: str | None = None) -> str | None:
+    """What made (or makes) a sweep directory: its provenance's ``producer``, or its ``kind``
+    when that is one of nld's sweeps ("bifurcation", "chaos_map"), else the command of its
+    ``command`` line ("nld attractors ..." -> "census sweep"), else ``what`` when it names a kind
+    of sweep; None when unknown (then only the settings are compared)."""
+    if provenance.get("producer"):
+        return str(provenance["producer"])
+    if provenance.get("kind") in _LABELS:
+        return str(provenance["kind"])
+    words = str(provenance.get("command") or "").split()
+    if len(words) >= 2 and words[1] in _COMMANDS:
+        return _COMMANDS[words[1]]
+    return what if what not in (None, "sweep", "run") else None
+
+
+def _reason(e: OSError) -> str:
+    """The words of a disk error: 'No space left on device', 'Permission denied' ..."""
+    import os
+    if e.errno:
+        return os.strerror(e.errno)
+    return " ".join(str(e).split())[:160]
 
 
 class ResultStore:
@@ -89,11 +118,17 @@ class ResultStore:
     def check_settings(self, provenance: dict, settings, *, what: str = "sweep",
                        defaults: dict | None = None) -> None:
         """InputError naming the first of ``settings`` whose value in ``provenance`` differs from
-        provenance.json's (nothing when there is no provenance.json). ``defaults``: the value an
+        provenance.json's (nothing when there is no provenance.json), or saying that the
+        directory holds another command's output (:func:`producer`). ``defaults``: the value an
         older provenance.json that lacks a setting stands for."""
         if not self.provenance_path.is_file():
             return
         old = self.provenance()
+        mine, theirs = producer(provenance, what), producer(old)
+        if theirs is not None and mine is not None and theirs != mine:
+            raise InputError(f"out = {str(self.path)!r} holds the output of another command "
+                             f"({_LABELS.get(theirs, theirs)}), not of {_LABELS.get(mine, mine)}: "
+                             "use another directory")
         defaults = defaults or {}
         for k in settings:
             if _plain(old.get(k, defaults.get(k))) != _plain(provenance.get(k)):
@@ -113,8 +148,15 @@ class ResultStore:
         if n and not resume:
             raise InputError(f"out = {str(self.path)!r} already holds {n} finished points: pass "
                              "resume=True (--resume) to continue that sweep, or use another directory")
+        made_by = producer(provenance, what)
+        if made_by is not None and "producer" not in provenance and \
+                provenance.get("kind") not in _LABELS:
+            provenance = {**provenance, "producer": made_by}
         text = json.dumps(provenance, indent=2, default=json_default) + "\n"
-        write_atomic(self.provenance_path, lambda tmp: tmp.write_text(text))
+        try:
+            write_atomic(self.provenance_path, lambda tmp: tmp.write_text(text))
+        except OSError as e:
+            raise OutputError(f"cannot write {self.provenance_path}: {_reason(e)}") from None
 
     # ---- points
 
@@ -131,7 +173,12 @@ class ResultStore:
         md = dict(table.schema.metadata or {})
         md[META_KEY] = json.dumps(meta, default=json_default).encode()
         table = table.replace_schema_metadata(md)
-        return write_atomic(path, lambda tmp: pq.write_table(table, tmp))
+        try:
+            return write_atomic(path, lambda tmp: pq.write_table(table, tmp))
+        except OSError as e:
+            raise OutputError(f"cannot write the point file {path}: {_reason(e)}; the points "
+                              f"finished before it are kept in {self.path} (run the same command "
+                              "with --resume, resume=True, once it can be written)") from None
 
     def files(self, group: str | None = None) -> list[Path]:
         """The finished point files (of one group), sorted by name."""
