@@ -358,7 +358,7 @@ def _as_sampler(system, sampler, rate_spread):
         lo, hi = (np.asarray(v, dtype=float).ravel() for v in sampler)
         if (lo.size != base.n or hi.size != base.n or not np.all(hi >= lo)
                 or not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi))):
-            raise InputError(f"sampler = (lo, hi): need two vectors of {base.n} finite values "
+            raise InputError(f"sampler = (lo, hi): need two vectors of {base.n} values, finite, "
                              f"with hi >= lo")
         return _box_sampler(lo, hi, z0)
     if not callable(sampler):
@@ -506,9 +506,13 @@ def _one_run(ctx, y, z) -> _Run:
     tol = ctx["period_tol"] * _extent(X, scales) + ctx["tol_floor"]
     period = near = 0
     if status == "ok":
-        period = section_period(X, scales, tol=tol, max_period=ctx["max_period"], angles=angles)
+        # the period test over the last half of the record (the first half: the run settling)
+        w = max(16, X.shape[0] // 2)
+        period = section_period(X, scales, tol=tol, max_period=ctx["max_period"], angles=angles,
+                                window=w)
         near = period if ctx["kind"] == "map" else section_period(
-            X, scales, tol=max(tol, NEAR_TOL), max_period=ctx["max_period"], angles=angles)
+            X, scales, tol=max(tol, NEAR_TOL), max_period=ctx["max_period"], angles=angles,
+            window=w)
     keep = 2 * ctx["max_period"]
     return _Run(status, X, zz, onsets, permanent, memory, period, tol, msg, near=near,
                 Zp=[np.array(q) for q in Zs[-keep:]], ret_time=ret)
@@ -817,10 +821,11 @@ def _whole_onsets(run: _Run) -> bool:
 
 def _orbit_lambda(orb):
     """(λ1, uncertainty) per period of an orbit: ln max|μ| / p (a continuum's neutral memory
-    multiplier left out) and its uncertainty from the multipliers' error."""
+    multiplier left out) and its uncertainty from the multipliers' error; and that error of
+    max|μ|."""
     amu = np.abs(np.asarray(orb.multipliers))
     if amu.size == 0:
-        return math.nan, math.nan
+        return math.nan, math.nan, math.nan
     consider = amu
     if getattr(orb, "memory_neutral", getattr(orb, "continuum", False)) and amu.size > 1:
         consider = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
@@ -831,7 +836,7 @@ def _orbit_lambda(orb):
         err = float(np.max(e)) if e.size else 0.0
     lam = math.log(mx) / orb.period if mx > 0 else -math.inf
     unc = (err / mx / orb.period) if mx > 0 else math.nan
-    return lam, unc
+    return lam, unc, float(err)
 
 
 def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int = 0,
@@ -947,9 +952,10 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             kind = (CHAOTIC if v == CHAOTIC else
                     "quasi-periodic" if v == "uncertain" and unc <= QUASI_PERIODIC_UNC
                     else "unsettled")
-        if kind == "unsettled" and math.isfinite(lam) and lam < 0:
-            # a run converging (λ1 < 0) without passing the period test: Newton from its end at
-            # the period of its closest returns; on a stable orbit it approaches, it is periodic
+        if kind == "unsettled":
+            # a run converging (λ1 < 0, or not resolved) without passing the period test: Newton
+            # from its end at the period of its closest returns; on a stable orbit that it
+            # approaches, it is periodic
             rest = []
             for i in g:
                 p = _best_period(ctx, runs[i])
@@ -1012,7 +1018,11 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
         lt = float(np.mean(las[fin])) if fin.any() else math.nan
         ut = (float(np.max(uns[fin]) + 0.5 * (np.max(las[fin]) - np.min(las[fin])))
               if fin.any() else math.nan)
-        lam, unc = _orbit_lambda(orb)
+        if ctx["kind"] == "poincare":
+            # an autonomous flow's λ1 on a limit cycle is that of the flow direction, 0: the
+            # tangent estimate checks nothing here
+            lt = ut = math.nan
+        lam, unc, err = _orbit_lambda(orb)
         ons = int(orb.onsets_per_period) if orb.onsets.size else None
         stab = getattr(orb, "stability", None) or ("stable" if orb.stable else "undecided")
         attractors.append(Attractor(
@@ -1022,8 +1032,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             lambda1_runs=lam_runs,
             onsets_per_period=(ons / orb.period) if ons is not None else math.nan,
             runs=sorted(g), verdict=kind_verdict("periodic"), onsets_per_orbit=ons,
-            multipliers=np.array(orb.multipliers), multiplier_error=unc * orb.period * math.exp(
-                lam * orb.period) if math.isfinite(unc) else math.nan,
+            multipliers=np.array(orb.multipliers), multiplier_error=err,
             orbit_residual=float(orb.residual), orbit=orb, lambda1_tangent=lt,
             lambda1_tangent_uncertainty=ut,
             note="" if stab == "stable" else f"orbit stability {stab}"))
@@ -1203,7 +1212,8 @@ def census_sweep(scene, param: str, values, *, overrides=(), out=None, resume: b
     if not values or not all(math.isfinite(v) for v in values):
         raise InputError(f"values = {values!r}: give finite parameter values")
     base = resolve_scene(scene, list(overrides))
-    resolve_scene(base, [f"{param}={values[0]!r}"])        # the key is checked before any run
+    for v in values:            # the key and every value checked before any run
+        resolve_scene(base, [f"{param}={v!r}"])
     bad = set(census_kw) - {"starts", "seed", "transient", "record", "rtol", "max_period",
                             "period_tol", "match_factor", "lyapunov_members", "rate_spread",
                             "escape"}
