@@ -15,14 +15,25 @@ done on its stroboscopic section:
    section is recorded for ``record`` periods (one integration, ``StroboscopicMap.orbit``).
 3. **Each run's motion.** *escaping*: the state left every bound (non-finite, or ``escape``
    times the start's size); *failed*: the integration failed otherwise (counted, never classed);
-   *periodic of period p*: the smallest p ≤ ``max_period`` with ||x_{k+p} − x_k|| ≤ tol over the
-   last 4p (at least 8) points, in the scaled norm (angles wrapped), tol = ``period_tol`` × the
-   section's extent + 1e3 rtol; *permanent contact*: a contact law with memory whose contact was
+   *periodic of period p*: the run lies on a stable period-p orbit found by Newton shooting
+   (``nld.analysis.orbits.periodic_orbit``) from its last p points, where the run is
+   near-periodic (the period test ``nld.analysis.poincare.section_period`` -- the one of ``nld
+   poincare`` -- passes at NEAR_TOL of the scales over the last half of the record; a map: at
+   tol = ``period_tol`` × the section's extent + 1e-10) or, later, unsettled (at the period of its
+   closest returns); "lies on": its last max(2p, 8) points within NEAR_TOL of the orbit (an
+   unsettled run: approaching it) and a whole number of contact onsets per period as the
+   orbit's. The plain integration's section of a contact orbit jitters by its global error over a
+   period (~1e5 rtol of the rate scales, docs/attractors.md "Period test and orbits"), so the
+   orbit, not the tolerance of the points, decides. Without a converged stable orbit a run is
+   periodic when the period test passes at tol = ``period_tol`` × the section's extent + 1e3
+   rtol √N and its onsets are a whole number per period; *permanent contact*: a contact law with memory whose contact was
    closed at every recorded point with no onset over the recorded span (the motion and its
    exponent depend on the memory recorded at the last onset: docs/contact-laws.md); else
    *not periodic*, decided below.
 4. **Grouping.** Runs of the same class are one attractor when their section sets are close:
-   periodic orbits when a cyclic shift brings every point within 10 tol; other sets when the
+   periodic runs when they lie on one Newton orbit (the attractor *is* that orbit: its points,
+   multipliers, λ1 = ln max|μ| / p, onsets per orbit); unpolished periodic runs when a cyclic
+   shift brings every point within 10 tol; other sets when the
    median distance from each point of one set to the other set is at most ``match_factor`` times
    the larger median nearest-neighbour spacing within either set (plus 1e-3 of the census's
    extent). Permanent-contact runs are one class: the orbits of such a motion form a continuum
