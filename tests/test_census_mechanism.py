@@ -84,20 +84,33 @@ def test_a_periodic_attractor_has_whole_onsets_per_period(cell_census, cell_orbi
     runs = cell_census.runs
     got = runs[runs["attractor"] == a.id]["onsets_per_period"].to_numpy()
     assert np.all(np.abs(got - 1.0) <= 1.0 / 24 + 1e-12), got
+    # and the section run counts them revolution by revolution: one in each
+    from nld.systems.derived import StroboscopicMap
+    sm = StroboscopicMap(cell_orbit.map.flow, rtol=RTOL)
+    sr = sm.orbit(a.points[0], a.orbit.z[0], 6, relabel=False)
+    assert sr.step_onsets.tolist() == [1] * 6
     d = a.to_dict()
     assert d["onsets_per_orbit"] == 1 and len(d["multipliers"]) == 5
 
 
 def test_a_fractional_onset_count_is_not_periodic():
-    """Issue 38 item 2: a run that passes the section's period test with a fractional number of
-    onsets per period (a grazing contact that comes and goes) is not called periodic."""
+    """Issue 38 item 2: a run that passes the section's period test with onsets that differ from
+    period to period (a grazing contact that comes and goes: 1.045 per revolution) is not called
+    periodic; the same number in every period is."""
     X = np.zeros((40, 2))
-    run = A._Run("ok", X, np.zeros(0), 1.045, False, {}, 1, 1e-6)
-    assert not A._whole_onsets(run)
-    run = A._Run("ok", X, np.zeros(0), 1.5, False, {}, 2, 1e-6)      # 3 onsets per 2 revs
-    assert A._whole_onsets(run)
-    run = A._Run("ok", X, np.zeros(0), 0.0, False, {}, 1, 1e-6)
-    assert A._whole_onsets(run)
+
+    def run(mean, period, steps=None):
+        r = A._Run("ok", X, np.zeros(0), mean, False, {}, period, 1e-6)
+        if steps is not None:
+            r.step_onsets = np.asarray(steps, dtype=np.int64)
+        return r
+    assert not A._whole_onsets(run(1.045, 1))                       # from the mean alone
+    assert A._whole_onsets(run(1.5, 2))                             # 3 onsets per 2 revolutions
+    assert A._whole_onsets(run(0.0, 1))
+    # from the per-revolution counts of the settled half of the record
+    assert A._whole_onsets(run(1.5, 2, [1, 2] * 20))
+    assert not A._whole_onsets(run(1.05, 1, [1] * 38 + [2, 1]))
+    assert not A._whole_onsets(run(1.5, 1, [1, 2] * 20))
 
 
 def test_one_period_test():

@@ -420,6 +420,7 @@ class _Run:
     Zp: list = field(default_factory=list)     # discrete states at the last points (<= 2 P)
     ret_time: float = math.nan  # mean time per section step (s)
     orbit: int = -1            # index of the census orbit the run lies on (-1: none)
+    step_onsets: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
 def _record_map(system, y, transient, record, escape):
@@ -449,7 +450,7 @@ def _record_poincare(pmap, y, z, transient, record):
     contact event over the recorded steps, mean return time, status, message)."""
     x = pmap.pack(y, z)
     zz = np.array(z, dtype=float)
-    X, Z, times = [], [], []
+    X, Z, times, per_step = [], [], [], []
     onsets = np.zeros(pmap.contacts.size, dtype=np.int64)
     try:
         for k in range(transient + record):
@@ -461,10 +462,13 @@ def _record_poincare(pmap, y, z, transient, record):
                 times.append(st.time)
                 if st.onsets.size:
                     onsets += st.onsets
+                    per_step.append(int(np.sum(st.onsets)))
     except SolveError as e:
         return (np.array(X).reshape(len(X), pmap.n), Z, onsets,
-                float(np.mean(times)) if times else math.nan, "failed", str(e))
-    return np.array(X), Z, onsets, float(np.mean(times)), "ok", ""
+                float(np.mean(times)) if times else math.nan, "failed", str(e),
+                np.array(per_step, dtype=np.int64))
+    return (np.array(X), Z, onsets, float(np.mean(times)), "ok", "",
+            np.array(per_step, dtype=np.int64))
 
 
 def _one_run(ctx, y, z) -> _Run:
@@ -472,14 +476,15 @@ def _one_run(ctx, y, z) -> _Run:
     system, smap = ctx["system"], ctx["map"]
     Zs: list = []
     ret = math.nan
+    step_onsets = np.zeros(0, dtype=np.int64)
     if ctx["kind"] == "map":
         X, status, msg = _record_map(system, y, ctx["transient"], ctx["record"], ctx["escape"])
         zz = np.zeros(0)
         onsets, permanent, memory = math.nan, False, {}
         ret = 1.0
     elif ctx["kind"] == "poincare":
-        X, Zs, ons, ret, status, msg = _record_poincare(smap, y, z, ctx["transient"],
-                                                        ctx["record"])
+        X, Zs, ons, ret, status, msg, step_onsets = _record_poincare(
+            smap, y, z, ctx["transient"], ctx["record"])
         zz = np.array(Zs[-1]) if Zs else np.array(z, dtype=float)
         if status != "ok":
             last = X[-1] if X.shape[0] else y
@@ -493,6 +498,7 @@ def _one_run(ctx, y, z) -> _Run:
         sr = smap.orbit(x, z, ctx["record"], transient=ctx["transient"])
         X, zz = sr.X, sr.z
         Zs = list(sr.Z) if sr.Z is not None else []
+        step_onsets = np.asarray(sr.step_onsets, dtype=np.int64)
         ret = smap.T
         status, msg = ("ok", "") if sr.success else ("failed", sr.message)
         if not sr.success:
@@ -525,8 +531,10 @@ def _one_run(ctx, y, z) -> _Run:
             X, scales, tol=max(tol, NEAR_TOL), max_period=ctx["max_period"], angles=angles,
             window=w)
     keep = 2 * ctx["max_period"]
+    if step_onsets.size != X.shape[0]:
+        step_onsets = np.zeros(0, dtype=np.int64)     # unknown (an overflowed event log)
     return _Run(status, X, zz, onsets, permanent, memory, period, tol, msg, near=near,
-                Zp=[np.array(q) for q in Zs[-keep:]], ret_time=ret)
+                Zp=[np.array(q) for q in Zs[-keep:]], ret_time=ret, step_onsets=step_onsets)
 
 
 def _run_start(ctx, i, y, z):
@@ -625,14 +633,21 @@ def _lies_on(ctx, run: _Run, orb, approach: bool = False) -> bool:
         d0 = _distance_to_orbit(ctx, run.X[:q], orb)
         ok = bool(np.max(d) <= 10.0 * near and np.mean(d[-q:] if d.size >= q else d)
                   <= 0.5 * np.mean(d0))
-    if ok and ctx["kind"] != "map" and math.isfinite(run.onsets) and orb.onsets.size:
-        # onsets per revolution over the recorded span against the orbit's whole number per
-        # period: they differ by at most one period's onsets at the span's ends
-        n_rec = run.X.shape[0]
-        total = run.onsets * n_rec
-        expect = orb.onsets_per_period * n_rec / p
-        ok = abs(total - expect) <= orb.onsets_per_period + 1.0
+    if ok and ctx["kind"] != "map" and orb.onsets.size:
+        # the run's contact onsets in each of its last periods: the orbit's whole number
+        blocks = _onset_blocks(run, p, max(2 * p, 8))
+        ok = blocks is None or bool(np.all(blocks == int(orb.onsets_per_period)))
     return ok
+
+
+def _onset_blocks(run: _Run, p: int, span: int):
+    """The run's contact onsets in each of its last floor(span / p) whole periods of p steps
+    (None where the per-step counts are not known)."""
+    s = run.step_onsets
+    if s.size == 0 or s.size < p:
+        return None
+    k = max(1, min(span, s.size) // p)
+    return s[s.size - k * p:].reshape(k, p).sum(axis=1)
 
 
 def _same_orbit(a, b) -> bool:
@@ -819,10 +834,15 @@ def _check_int(name, v, lo):
 
 
 def _whole_onsets(run: _Run) -> bool:
-    """A period-p run (no orbit from Newton) has a whole number of contact onsets per period:
-    its count over the recorded span is that number x the periods, give or take one period's."""
+    """A period-p run (no orbit from Newton) has the same whole number of contact onsets in each
+    period of the last half of its record (where the period test looked); without per-step
+    counts: its count over the recorded span is a whole number x the periods, give or take one
+    period's."""
     if not math.isfinite(run.onsets) or not run.period:
         return True
+    blocks = _onset_blocks(run, run.period, max(16, run.X.shape[0] // 2))
+    if blocks is not None:
+        return bool(np.all(blocks == blocks[0]))
     n_rec = run.X.shape[0]
     total = run.onsets * n_rec
     k = round(total * run.period / n_rec)
@@ -1006,6 +1026,15 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
                     a, b = mem.get(k, (v, v))
                     mem[k] = (min(a, v), max(b, v))
         ons = [runs[i].onsets for i in g if math.isfinite(runs[i].onsets)]
+        per_orbit = None
+        if kind == "periodic" and period:
+            # the whole number per period of the settled window (_whole_onsets checked it)
+            blocks = [_onset_blocks(runs[i], period, max(16, runs[i].X.shape[0] // 2))
+                      for i in g]
+            got = {int(b[0]) for b in blocks if b is not None and b.size}
+            if len(got) == 1:
+                per_orbit = got.pop()
+                ons = [per_orbit / period]
         note = ("orbits of a continuum selected by the recorded memory (history-dependent)"
                 if head.permanent else
                 "not polished: Newton shooting did not converge to a stable orbit from its runs"
@@ -1017,7 +1046,8 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             onsets_per_period=float(np.mean(ons)) if ons else math.nan,
             conditional_on_memory=mem, runs=list(g), verdict=word,
             lambda1_check=chk[0] if chk else math.nan,
-            lambda1_check_uncertainty=chk[1] if chk else math.nan, note=note))
+            lambda1_check_uncertainty=chk[1] if chk else math.nan, note=note,
+            onsets_per_orbit=per_orbit))
         for i in g:
             kinds[i] = kind
     for k, g in sorted(by_orbit.items()):
