@@ -88,7 +88,7 @@ def test_a_periodic_attractor_has_whole_onsets_per_period(cell_census, cell_orbi
     from nld.systems.derived import StroboscopicMap
     sm = StroboscopicMap(cell_orbit.map.flow, rtol=RTOL)
     sr = sm.orbit(a.points[0], a.orbit.z[0], 6, relabel=False)
-    assert sr.step_onsets.tolist() == [1] * 6
+    assert sr.step_onsets.tolist() == [[1]] * 6
     d = a.to_dict()
     assert d["onsets_per_orbit"] == 1 and len(d["multipliers"]) == 5
 

@@ -26,8 +26,10 @@ done on its stroboscopic section:
    period (~1e5 rtol of the rate scales, docs/attractors.md "Period test and orbits"), so the
    orbit, not the tolerance of the points, decides. Without a converged stable orbit a run is
    periodic when the period test passes at tol = ``period_tol`` × the section's extent + 1e3
-   rtol √N and its onsets are a whole number per period; *permanent contact*: a contact law with memory whose contact was
-   closed at every recorded point with no onset over the recorded span (the motion and its
+   rtol √N and its onsets are a whole number per period; *permanent contact*: a contact law
+   with memory whose contact was closed at every point of the last half of the record with no
+   onset there (a Newton orbit with the memory's neutral multiplier is such a motion, not a
+   periodic attractor; the motion and its
    exponent depend on the memory recorded at the last onset: docs/contact-laws.md); else
    *not periodic*, decided below.
 4. **Grouping.** Runs of the same class are one attractor when their section sets are close:
@@ -462,13 +464,13 @@ def _record_poincare(pmap, y, z, transient, record):
                 times.append(st.time)
                 if st.onsets.size:
                     onsets += st.onsets
-                    per_step.append(int(np.sum(st.onsets)))
+                    per_step.append(np.asarray(st.onsets, dtype=np.int64))
     except SolveError as e:
         return (np.array(X).reshape(len(X), pmap.n), Z, onsets,
                 float(np.mean(times)) if times else math.nan, "failed", str(e),
-                np.array(per_step, dtype=np.int64))
+                np.array(per_step, dtype=np.int64).reshape(len(per_step), pmap.contacts.size))
     return (np.array(X), Z, onsets, float(np.mean(times)), "ok", "",
-            np.array(per_step, dtype=np.int64))
+            np.array(per_step, dtype=np.int64).reshape(len(per_step), pmap.contacts.size))
 
 
 def _one_run(ctx, y, z) -> _Run:
@@ -476,7 +478,8 @@ def _one_run(ctx, y, z) -> _Run:
     system, smap = ctx["system"], ctx["map"]
     Zs: list = []
     ret = math.nan
-    step_onsets = np.zeros(0, dtype=np.int64)
+    step_onsets = np.zeros((0, 0), dtype=np.int64)
+    w = max(16, ctx["record"] // 2)         # the settled window: the last half of the record
     if ctx["kind"] == "map":
         X, status, msg = _record_map(system, y, ctx["transient"], ctx["record"], ctx["escape"])
         zz = np.zeros(0)
@@ -492,6 +495,8 @@ def _one_run(ctx, y, z) -> _Run:
                 status = "escaping"
         n_rec = max(1, X.shape[0])
         onsets = float(np.sum(ons)) / n_rec if ons.size else math.nan
+        if step_onsets.shape[0] == X.shape[0] and X.shape[0] and step_onsets.size:
+            onsets = float(np.mean(np.sum(step_onsets[-w:], axis=1)))
         permanent, memory = False, {}
     else:
         x = smap.pack(y, z)
@@ -509,14 +514,22 @@ def _one_run(ctx, y, z) -> _Run:
                 status = "escaping"
         n_rec = max(1, X.shape[0])
         onsets = float(np.sum(sr.onsets)) / n_rec if sr.onsets.size else math.nan
+        known = step_onsets.shape[0] == X.shape[0] and X.shape[0] > 0 and step_onsets.size > 0
+        if known:       # onsets per period over the settled window (not the record's start)
+            onsets = float(np.mean(np.sum(step_onsets[-w:], axis=1)))
         permanent, memory = False, {}
         if smap.memory.size and X.shape[0]:
+            # permanent contact: closed at every point of the settled window, with no onset
+            # in it (a run that had onsets early in the record and then stayed in contact is
+            # on a member of the continuum, not on an impacting orbit)
             names = smap.state_names[smap.n_y:]
             for j, e in enumerate(smap.memory_events):
                 if e < 0:
                     continue
                 jc = int(np.nonzero(smap.contacts == e)[0][0])
-                if sr.onsets[jc] == 0 and np.all(sr.gaps[:, jc] > 0.0):
+                none = (int(np.sum(step_onsets[-w:, jc])) == 0 if known
+                        else sr.onsets[jc] == 0)
+                if none and np.all(sr.gaps[-w:, jc] > 0.0):
                     permanent = True
                     memory[names[j]] = float(X[-1, smap.n_y + j])
     scales, angles = ctx["scales"], ctx["angles"]
@@ -531,8 +544,9 @@ def _one_run(ctx, y, z) -> _Run:
             X, scales, tol=max(tol, NEAR_TOL), max_period=ctx["max_period"], angles=angles,
             window=w)
     keep = 2 * ctx["max_period"]
-    if step_onsets.size != X.shape[0]:
-        step_onsets = np.zeros(0, dtype=np.int64)     # unknown (an overflowed event log)
+    step_onsets = (np.sum(step_onsets, axis=1) if step_onsets.ndim == 2 and
+                   step_onsets.shape[0] == X.shape[0] and step_onsets.shape[1]
+                   else np.zeros(0, dtype=np.int64))      # empty: unknown (an overflowed log)
     return _Run(status, X, zz, onsets, permanent, memory, period, tol, msg, near=near,
                 Zp=[np.array(q) for q in Zs[-keep:]], ret_time=ret, step_onsets=step_onsets)
 
@@ -608,6 +622,8 @@ def _polish(ctx, run: _Run, p: int):
         return None
     if prime_period(m, orb.points, _orbit_tol(orb)) != p:
         return None
+    if getattr(orb, "memory_neutral", orb.continuum):
+        return None         # a member of a permanent-contact continuum: that class, not this
     stability = getattr(orb, "stability", None)
     if stability is not None and stability != "stable":
         return None

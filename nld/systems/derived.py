@@ -86,8 +86,8 @@ class SectionRun:
     wrapped: as integrated) and discrete states at the points. status, t_reached, stats: the
     integrator's status (``nld.run.simulate.INTERRUPTED`` after Ctrl-C), where it stopped (s) and
     its counters (steps, accepted, rejected, rhs, events ...). z_reached: the discrete state
-    where the integration stopped (that of the last point when it succeeded). step_onsets: (m,)
-    the contact onsets (all contact events) in the step that ends at each point, t in
+    where the integration stopped (that of the last point when it succeeded). step_onsets:
+    (m, n_contacts) the onsets of each contact event in the step that ends at each point, t in
     (t_k - T, t_k] (empty where the event log overflowed).
     """
     X: np.ndarray
@@ -104,7 +104,7 @@ class SectionRun:
     t_reached: float = math.nan
     stats: np.ndarray = field(default_factory=lambda: np.zeros(5, dtype=np.int64))
     z_reached: np.ndarray | None = None
-    step_onsets: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    step_onsets: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
 
 
 def contact_events(system) -> np.ndarray:
@@ -438,15 +438,19 @@ class StroboscopicMap(_FlowMap):
         return run
 
     def _step_onsets(self, te, ev_t, ev_k, ev_dir) -> np.ndarray:
-        """Contact onsets in each step (te_k - T, te_k] from an event log."""
+        """(m, n_contacts): the onsets of each contact event in each step (te_k - T, te_k]
+        from an event log."""
+        out = np.zeros((te.size, self.contacts.size), dtype=np.int64)
         if te.size == 0:
-            return np.zeros(0, dtype=np.int64)
-        up = np.isin(np.asarray(ev_k), self.contacts) & (np.asarray(ev_dir) > 0)
+            return out
         edges = np.concatenate([[te[0] - self.T], te])
-        t = np.asarray(ev_t, dtype=float)[up]
-        k = np.searchsorted(edges, t, side="left") - 1     # t in (edges[k], edges[k+1]]
-        k = k[(k >= 0) & (k < te.size)]
-        return np.bincount(k, minlength=te.size).astype(np.int64)
+        ev_k, ev_dir = np.asarray(ev_k), np.asarray(ev_dir)
+        for j, e in enumerate(self.contacts):
+            t = np.asarray(ev_t, dtype=float)[(ev_k == e) & (ev_dir > 0)]
+            k = np.searchsorted(edges, t, side="left") - 1     # t in (edges[k], edges[k+1]]
+            k = k[(k >= 0) & (k < te.size)]
+            out[:, j] = np.bincount(k, minlength=te.size)
+        return out
 
     def _count_onsets(self, k, d) -> np.ndarray:
         onsets = np.zeros(self.contacts.size, dtype=np.int64)
