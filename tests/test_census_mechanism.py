@@ -195,3 +195,23 @@ def test_cli_values_checked_before_work(tmp_path, capsys):
     assert "joints.B.clearance = -1" in capsys.readouterr().err
     assert not (out.exists() and any(out.iterdir()))
 
+
+
+@pytest.mark.slow
+def test_impacts_that_stop_are_permanent_contact_not_periodic():
+    """Issue 38 item 2 on a mechanism: the committed olyaei2012 census (mu = 0.05, 4750 rpm,
+    starts of seed 0, transient and record 100, rtol 1e-9) listed start 11 as "periodic, period
+    1" with 0.4 contact onsets per revolution: its journal impacted early in the record and then
+    stayed in contact. It is permanent contact (no onset over the settled window; its Newton orbit
+    has the memory's neutral multiplier), and no periodic attractor has a fractional onset count.
+    Quick variants in the default run: the slider-crank cell above and the unit cases."""
+    from nld.systems.core import SceneSystem
+    s = SceneSystem("slider_crank_olyaei", ["joints.B.friction.mu=0.05",
+                                            f"driver.speed={4750 * math.pi / 30!r}"])
+    sample = A.scene_sampler(s)
+    rng = np.random.default_rng(0)
+    y, z = [sample(rng) for _ in range(12)][11]
+    r = census(s, 1, sampler=lambda rng: (y.copy(), z.copy()), transient=100, record=100,
+               rtol=1e-9, lyapunov_members=1, check=False, progress=False)
+    assert [a.kind for a in r.attractors] == ["permanent contact"], str(r)
+    assert r.attractors[0].onsets_per_period == 0.0
