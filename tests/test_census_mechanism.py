@@ -37,8 +37,7 @@ def cell():
 
 @pytest.fixture(scope="module")
 def cell_census(cell):
-    # starts 1 and 2 of seed 0 reach the impacting orbit (the others of the 16 of issue 38's
-    # command: 12 of 16 on it, 4 in permanent contact)
+    # (of the 16 starts of issue 38's command, 12 reach the impacting orbit, 4 permanent contact)
     return census(cell, 3, seed=0, transient=40, record=24, rtol=RTOL, lyapunov_members=1,
                   progress=False)
 

@@ -86,6 +86,12 @@ DEFAULTS = dict(starts=32, transient=50, record=100, max_period=16, period_tol=1
 # a plain integration's section carries the integration's global error over each period,
 # ~1e5 rtol of the rate scales on a contact orbit, far above rtol)
 NEAR_TOL = 1e-3
+# an unsettled run is tried by Newton only where its closest returns over the last half of the
+# record are within this scaled max-norm (farther, Newton would start far from any orbit)
+APPROACH_TOL = 0.1
+# Newton iterations of a census polish (a near-periodic run starts within NEAR_TOL of its orbit;
+# from farther it converges in a few more steps or not at all)
+POLISH_ITER = 15
 # two Newton orbits are one when a point of one is within max(ORBIT_MATCH, 10 x their tolerance)
 # of a point of the other (scaled max-norm; as nld.analysis.orbits.find_orbits)
 ORBIT_MATCH = 1e-6
@@ -615,7 +621,7 @@ def _polish(ctx, run: _Run, p: int):
     z = run.Zp[-p] if len(run.Zp) >= p else None
     try:
         orb = periodic_orbit(m, p, guess if p > 1 else guess[0], z=z,
-                             check=ctx["kind"] != "map")
+                             check=ctx["kind"] != "map", max_iter=POLISH_ITER)
     except (SolveError, InputError, FloatingPointError, np.linalg.LinAlgError, ValueError):
         return None
     if not orb.converged or not np.all(np.isfinite(orb.points)):
@@ -691,7 +697,8 @@ def _assign_orbit(ctx, orbits: list, run: _Run, p: int, approach: bool = False) 
 def _best_period(ctx, run: _Run) -> int:
     """The p <= max_period whose returns ||x_{k+p} - x_k|| over the last half of the record are
     smallest (the smallest p within a factor 2 of the least): the period Newton is tried at for
-    a run that converges (λ1 < 0) without passing the period test."""
+    a run that converges (λ1 < 0) without passing the period test; 0 where even the closest
+    returns are farther apart than APPROACH_TOL (scaled)."""
     X = run.X
     n = X.shape[0]
     best = []
@@ -704,6 +711,8 @@ def _best_period(ctx, run: _Run) -> int:
     if not best:
         return 0
     lo = min(best)
+    if lo > APPROACH_TOL:
+        return 0            # no return close enough for Newton to start from
     return next(p + 1 for p, v in enumerate(best) if v <= 2.0 * lo)
 
 
