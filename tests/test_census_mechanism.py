@@ -90,6 +90,7 @@ def test_a_periodic_attractor_has_whole_onsets_per_period(cell_census, cell_orbi
     assert sr.step_onsets.tolist() == [[1]] * 6
     d = a.to_dict()
     assert d["onsets_per_orbit"] == 1 and len(d["multipliers"]) == 5
+    assert np.allclose(d["orbit_points"], a.points) and len(d["orbit_points"]) == 1
 
 
 def test_a_fractional_onset_count_is_not_periodic():

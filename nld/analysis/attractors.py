@@ -259,6 +259,8 @@ class Attractor:
                                 [[float(m.real), float(m.imag)] for m in self.multipliers]),
                 "multiplier_error": _num(self.multiplier_error),
                 "orbit_residual": _num(self.orbit_residual),
+                "orbit_points": (None if self.orbit is None else
+                                 np.asarray(self.points, dtype=float).tolist()),
                 "lambda1_tangent": _num(self.lambda1_tangent),
                 "lambda1_tangent_uncertainty": _num(self.lambda1_tangent_uncertainty)}
 
