@@ -675,9 +675,13 @@ def _onset_blocks(run: _Run, p: int, span: int):
 
 
 def _same_orbit(a, b) -> bool:
-    from nld.analysis.orbits import _same_orbit as same
-    return (a.period == b.period
-            and same(a.map, a.points, b.points, max(_orbit_tol(a), _orbit_tol(b))))
+    """Two orbits of one period are one when a point of one is a point of the other (any cyclic
+    shift), to max(ORBIT_MATCH, 10 x their Newton tolerance) in the scaled max-norm."""
+    if a.period != b.period:
+        return False
+    m, tol = a.map, max(_orbit_tol(a), _orbit_tol(b))
+    return any(float(np.max(np.abs(m.difference(a.points[0], q) / m.scales))) <= tol
+               for q in b.points)
 
 
 def _assign_orbit(ctx, orbits: list, run: _Run, p: int, approach: bool = False) -> int:
