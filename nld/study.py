@@ -618,7 +618,8 @@ def save_route(study, route: dict) -> None:
 # ---------------------------------------------------------------- coexisting motions
 CENSUS_COLUMNS = ["point", "verdict_before", "census_verdict", "attractor", "kind", "period",
                   "fraction", "fraction_lo", "fraction_hi", "lambda1_per_rev",
-                  "lambda1_unc_per_rev", "onsets_per_rev", "count", "starts", "memory"]
+                  "lambda1_unc_per_rev", "onsets_per_rev", "onsets_per_orbit", "max_abs_mu",
+                  "count", "starts", "memory"]
 
 
 def census_points(study, scene: str, points: dict, st: dict):
@@ -627,6 +628,7 @@ def census_points(study, scene: str, points: dict, st: dict):
     ``census`` settings (starts, transient, record, rtol, seed) and ``workers``. One row per
     attractor (and one per point for its unsettled runs), columns :data:`CENSUS_COLUMNS`; the
     census's verdict ("coexisting", or the one attractor's class) replaces "not established"."""
+    import numpy as np
     import pandas as pd
     from nld.analysis.attractors import census
     from nld.systems.core import SceneSystem
@@ -645,8 +647,13 @@ def census_points(study, scene: str, points: dict, st: dict):
                              fraction_lo=a.fraction_interval[0],
                              fraction_hi=a.fraction_interval[1], lambda1_per_rev=a.lambda1,
                              lambda1_unc_per_rev=a.lambda1_uncertainty,
-                             onsets_per_rev=a.onsets_per_period, count=a.count,
-                             starts=res.n_starts, memory=mem))
+                             onsets_per_rev=a.onsets_per_period,
+                             onsets_per_orbit=(a.onsets_per_orbit if a.onsets_per_orbit
+                                               is not None else float("nan")),
+                             max_abs_mu=(float(np.max(np.abs(a.multipliers)))
+                                         if a.multipliers is not None and len(a.multipliers)
+                                         else float("nan")),
+                             count=a.count, starts=res.n_starts, memory=mem))
         if res.unsettled or not res.attractors:
             lo, hi = res.unsettled_interval
             rows.append(dict(point=label, verdict_before=before, census_verdict=res.verdict,
@@ -654,6 +661,7 @@ def census_points(study, scene: str, points: dict, st: dict):
                              fraction=res.unsettled / res.n_starts, fraction_lo=lo,
                              fraction_hi=hi, lambda1_per_rev=float("nan"),
                              lambda1_unc_per_rev=float("nan"), onsets_per_rev=float("nan"),
+                             onsets_per_orbit=float("nan"), max_abs_mu=float("nan"),
                              count=res.unsettled, starts=res.n_starts, memory=""))
     return pd.DataFrame(rows, columns=CENSUS_COLUMNS)
 
@@ -675,7 +683,8 @@ def census_page(rep, df, st: dict, what: str) -> None:
         return
     show = df.drop(columns=["verdict_before", "starts"]).rename(columns={
         "census_verdict": "census", "fraction_lo": "lo", "fraction_hi": "hi",
-        "lambda1_per_rev": "λ1/rev", "lambda1_unc_per_rev": "±", "onsets_per_rev": "onsets/rev"})
+        "lambda1_per_rev": "λ1/rev", "lambda1_unc_per_rev": "±", "onsets_per_rev": "onsets/rev",
+        "onsets_per_orbit": "onsets/orbit", "max_abs_mu": "max|μ|"})
     rep.table("Coexisting motions (attractor census)", show, notes=[
         f"Where the verdict of a {what} was 'not established' (the exponent's verdict changed "
         f"with the tolerance and the averaging span), the attractor census "
@@ -689,5 +698,8 @@ def census_page(rep, df, st: dict, what: str) -> None:
         f"of the attractor (± their larger uncertainty + half their spread). 'permanent contact': no "
         f"contact onset under the Lankarani–Nikravesh law over the recorded span, so the motion "
         f"and its λ1 depend on the memory the last impact left (range in 'memory'); "
+        f"'periodic': runs on a stable orbit found by Newton shooting from them "
+        f"(nld.analysis.orbits.periodic_orbit): its multipliers (max|μ|), λ1 = ln max|μ| / p "
+        f"and its whole number of contact onsets per orbit (p revolutions); "
         f"'unsettled': runs neither periodic nor resolved within the run. The census verdict "
         f"replaces 'not established': 'coexisting' where more than one motion was found."])

@@ -15,14 +15,27 @@ done on its stroboscopic section:
    section is recorded for ``record`` periods (one integration, ``StroboscopicMap.orbit``).
 3. **Each run's motion.** *escaping*: the state left every bound (non-finite, or ``escape``
    times the start's size); *failed*: the integration failed otherwise (counted, never classed);
-   *periodic of period p*: the smallest p ≤ ``max_period`` with ||x_{k+p} − x_k|| ≤ tol over the
-   last 4p (at least 8) points, in the scaled norm (angles wrapped), tol = ``period_tol`` × the
-   section's extent + 1e3 rtol; *permanent contact*: a contact law with memory whose contact was
-   closed at every recorded point with no onset over the recorded span (the motion and its
+   *periodic of period p*: the run lies on a stable period-p orbit found by Newton shooting
+   (``nld.analysis.orbits.periodic_orbit``) from its last p points, where the run is
+   near-periodic (the period test ``nld.analysis.poincare.section_period`` -- the one of ``nld
+   poincare`` -- passes at NEAR_TOL of the scales over the last half of the record; a map: at
+   tol = ``period_tol`` × the section's extent + 1e-10) or, later, unsettled (at the period of its
+   closest returns); "lies on": its last max(2p, 8) points within NEAR_TOL of the orbit (an
+   unsettled run: approaching it) and a whole number of contact onsets per period as the
+   orbit's. The plain integration's section of a contact orbit jitters by its global error over a
+   period (~1e5 rtol of the rate scales, docs/attractors.md "Period test and orbits"), so the
+   orbit, not the tolerance of the points, decides. Without a converged stable orbit a run is
+   periodic when the period test passes at tol = ``period_tol`` × the section's extent + 1e3
+   rtol √N and its onsets are a whole number per period; *permanent contact*: a contact law
+   with memory whose contact was closed at every point of the last half of the record with no
+   onset there (a Newton orbit with the memory's neutral multiplier is such a motion, not a
+   periodic attractor; the motion and its
    exponent depend on the memory recorded at the last onset: docs/contact-laws.md); else
    *not periodic*, decided below.
 4. **Grouping.** Runs of the same class are one attractor when their section sets are close:
-   periodic orbits when a cyclic shift brings every point within 10 tol; other sets when the
+   periodic runs when they lie on one Newton orbit (the attractor *is* that orbit: its points,
+   multipliers, λ1 = ln max|μ| / p, onsets per orbit); unpolished periodic runs when a cyclic
+   shift brings every point within 10 tol; other sets when the
    median distance from each point of one set to the other set is at most ``match_factor`` times
    the larger median nearest-neighbour spacing within either set (plus 1e-3 of the census's
    extent). Permanent-contact runs are one class: the orbits of such a motion form a continuum
@@ -52,7 +65,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nld.analysis.poincare import section_period
 from nld.errors import InputError, SolveError
+from nld.systems.derived import NumbaMap, PoincareMap
 
 __all__ = ["Attractor", "CensusResult", "census", "census_sweep", "match_attractors",
            "wilson_interval", "section_period", "set_distance", "DEFAULTS", "KINDS",
@@ -64,6 +79,22 @@ KINDS = ("periodic", "quasi-periodic", "chaotic", "permanent contact", "escaping
 DEFAULTS = dict(starts=32, transient=50, record=100, max_period=16, period_tol=1e-4,
                 match_factor=3.0, lyapunov_members=2, rate_spread=0.5, escape=1e6, seed=0,
                 map_transient=1000, map_record=200)
+# a flow's run is *near-periodic* when its section repeats with period p to this scaled max-norm
+# over the whole recorded span (the scales: clearance, clearance x crank speed ...); the orbit
+# itself is then found by Newton shooting (``nld.analysis.orbits.periodic_orbit``) and the run is
+# periodic when it lies within this distance of a stable orbit (docs/attractors.md, "Period test":
+# a plain integration's section carries the integration's global error over each period,
+# ~1e5 rtol of the rate scales on a contact orbit, far above rtol)
+NEAR_TOL = 1e-3
+# an unsettled run is tried by Newton only where its closest returns over the last half of the
+# record are within this scaled max-norm (farther, Newton would start far from any orbit)
+APPROACH_TOL = 0.1
+# Newton iterations of a census polish (a near-periodic run starts within NEAR_TOL of its orbit;
+# from farther it converges in a few more steps or not at all)
+POLISH_ITER = 15
+# two Newton orbits are one when a point of one is within max(ORBIT_MATCH, 10 x their tolerance)
+# of a point of the other (scaled max-norm; as nld.analysis.orbits.find_orbits)
+ORBIT_MATCH = 1e-6
 # a not-periodic motion is quasi-periodic only when its λ1 is zero within an uncertainty of at
 # most this (per period): a wide interval around zero is "not resolved", not quasi-periodic
 QUASI_PERIODIC_UNC = 0.05
@@ -107,21 +138,6 @@ def _extent(X, scales) -> float:
     return float(np.sqrt(np.sum(r * r)))
 
 
-def section_period(X, scales, *, tol: float, max_period: int, angles=None) -> int:
-    """The smallest p <= max_period with ||x_{k+p} - x_k|| <= tol (scaled norm) over the last
-    max(4p, 8) points of X (n, N); 0 when none (not periodic, or not settled)."""
-    angles = np.zeros(0, dtype=np.int64) if angles is None else np.asarray(angles, dtype=np.int64)
-    n = X.shape[0]
-    for p in range(1, int(max_period) + 1):
-        w = max(4 * p, 8)
-        if n < w + p:
-            break
-        d = _diff(X[n - w:], X[n - w - p:n - p], angles) / scales
-        if float(np.max(np.sqrt(np.sum(d * d, axis=1)))) <= tol:
-            return p
-    return 0
-
-
 def _nn_spacing(A, scales, angles) -> float:
     """The median nearest-neighbour distance within A (0 for fewer than 2 distinct points)."""
     if A.shape[0] < 2:
@@ -156,10 +172,19 @@ class Attractor:
     kind: "periodic", "quasi-periodic", "chaotic", "permanent contact" or "escaping".
     period: the section period p of a periodic (or periodic permanent-contact) motion, else 0.
     count / fraction / fraction_interval: runs that reached it, k/N and the Wilson 95 % interval.
-    points: representative section points (the first run's last <= 64 points; SI units).
+    points: representative section points (a periodic attractor: the p points of its orbit
+    from Newton shooting; else the first run's last <= 64 points; SI units).
     lambda1, lambda1_uncertainty: per period (scene: per crank revolution; map: per iteration);
-    lambda1_runs: (run, λ1, uncertainty) of the runs measured.
-    onsets_per_period: contact onsets per period (all clearance joints), mean over its runs.
+    of a periodic attractor ln max|μ| / p from the orbit's Floquet multipliers (its uncertainty
+    from the multipliers' ``multiplier_error``), else the tangent estimate on its runs;
+    lambda1_runs: (run, λ1, uncertainty) of the runs measured by the tangent estimator, whose
+    mean is ``lambda1_tangent`` ± ``lambda1_tangent_uncertainty`` (a periodic attractor: the
+    second method's check of ln max|μ| / p).
+    onsets_per_period: contact onsets per period (all clearance joints), mean over its runs; of a
+    periodic attractor the orbit's whole number ``onsets_per_orbit`` (per p periods) / p.
+    multipliers, multiplier_error, orbit_residual, orbit: a periodic attractor's orbit
+    (``nld.analysis.orbits.PeriodicOrbit``, the orbit ``nld orbits`` finds), its Floquet
+    multipliers (by decreasing modulus), the uncertainty of max|μ| and the Newton residual.
     conditional_on_memory: permanent contact: the memory entries' values (m/s) over its runs
     (min, max per entry), on which the motion and λ1 depend.
     runs: indices of the starts that reached it.
@@ -181,6 +206,13 @@ class Attractor:
     verdict: str = ""
     lambda1_check: float = math.nan
     lambda1_check_uncertainty: float = math.nan
+    onsets_per_orbit: int | None = None
+    multipliers: np.ndarray | None = None
+    multiplier_error: float = math.nan
+    orbit_residual: float = math.nan
+    orbit: object = field(default=None, repr=False)
+    lambda1_tangent: float = math.nan
+    lambda1_tangent_uncertainty: float = math.nan
 
     def line(self, period_name: str = "period") -> str:
         lo, hi = self.fraction_interval
@@ -193,8 +225,19 @@ class Attractor:
             s += (f" (check at a tenth of the tolerance over twice the span: "
                   f"{self.lambda1_check:.4g} ± {self.lambda1_check_uncertainty:.2g}; verdict "
                   f"{self.verdict})")
-        if math.isfinite(self.onsets_per_period):
+        if self.multipliers is not None and len(self.multipliers):
+            s += (f", orbit by Newton shooting (residual {self.orbit_residual:.2g}): max |μ| = "
+                  f"{float(np.max(np.abs(self.multipliers))):.4g} ± {self.multiplier_error:.2g}, "
+                  f"λ1 = ln max|μ| / {self.period}")
+            if math.isfinite(self.lambda1_tangent):
+                s += (f" (tangent estimate {self.lambda1_tangent:.4g} ± "
+                      f"{self.lambda1_tangent_uncertainty:.2g})")
+        if self.onsets_per_orbit is not None:
+            s += f", {self.onsets_per_orbit} contact onsets per period-{self.period} orbit"
+        elif math.isfinite(self.onsets_per_period):
             s += f", {self.onsets_per_period:.3g} contact onsets per {period_name}"
+        if self.note and self.kind == "periodic":
+            s += f" ({self.note})"
         if self.conditional_on_memory:
             mem = ", ".join(f"{k} in [{a:.3g}, {b:.3g}] m/s"
                             for k, (a, b) in self.conditional_on_memory.items())
@@ -210,7 +253,16 @@ class Attractor:
                 "conditional_on_memory": self.conditional_on_memory, "runs": list(self.runs),
                 "note": self.note, "verdict": self.verdict,
                 "lambda1_check": _num(self.lambda1_check),
-                "lambda1_check_uncertainty": _num(self.lambda1_check_uncertainty)}
+                "lambda1_check_uncertainty": _num(self.lambda1_check_uncertainty),
+                "onsets_per_orbit": self.onsets_per_orbit,
+                "multipliers": (None if self.multipliers is None else
+                                [[float(m.real), float(m.imag)] for m in self.multipliers]),
+                "multiplier_error": _num(self.multiplier_error),
+                "orbit_residual": _num(self.orbit_residual),
+                "orbit_points": (None if self.orbit is None else
+                                 np.asarray(self.points, dtype=float).tolist()),
+                "lambda1_tangent": _num(self.lambda1_tangent),
+                "lambda1_tangent_uncertainty": _num(self.lambda1_tangent_uncertainty)}
 
 
 def _num(v):
@@ -310,18 +362,25 @@ def _box_sampler(lo, hi, z0):
     return sample
 
 
+def _flow_of(system):
+    """The system whose states the starts are: a Poincaré map's flow, else the system."""
+    return system.flow if isinstance(system, PoincareMap) else system
+
+
 def _as_sampler(system, sampler, rate_spread):
-    z0 = np.asarray(getattr(system, "z0", np.zeros(0)), dtype=float)
+    base = _flow_of(system)
+    z0 = np.asarray(getattr(base, "z0", np.zeros(0)), dtype=float)
     if sampler is None:
-        if getattr(system, "kernel", None) is not None:
-            return scene_sampler(system, rate_spread)
+        if getattr(base, "kernel", None) is not None:
+            return scene_sampler(base, rate_spread)
         raise InputError(f"sampler = None: {system.name} is not a scene; give sampler(rng) -> y "
                          f"(or (y, z)) or a box (lo, hi) of starting states")
     if isinstance(sampler, tuple) and len(sampler) == 2 and not callable(sampler[0]):
         lo, hi = (np.asarray(v, dtype=float).ravel() for v in sampler)
-        if lo.size != system.n or hi.size != system.n or not np.all(hi >= lo):
-            raise InputError(f"sampler = (lo, hi): need two vectors of {system.n} values with "
-                             f"hi >= lo")
+        if (lo.size != base.n or hi.size != base.n or not np.all(hi >= lo)
+                or not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi))):
+            raise InputError(f"sampler = (lo, hi): need two vectors of {base.n} values, finite, "
+                             f"with hi >= lo")
         return _box_sampler(lo, hi, z0)
     if not callable(sampler):
         raise InputError(f"sampler = {sampler!r}: must be sampler(rng) -> y or (y, z), or a box "
@@ -330,14 +389,28 @@ def _as_sampler(system, sampler, rate_spread):
     def sample(rng):
         out = sampler(rng)
         if isinstance(out, tuple):
+            if len(out) != 2:
+                raise InputError(f"sampler returned a tuple of {len(out)}: must return y or "
+                                 f"(y, z)")
             y, z = out
         else:
             y, z = out, z0.copy()
-        y = np.asarray(y, dtype=float).ravel()
-        if y.size != system.n:
-            raise InputError(f"sampler returned {y.size} values: the system has {system.n} "
+        try:
+            y = np.asarray(y, dtype=float).ravel()
+            z = np.asarray(z, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise InputError(f"sampler returned {out!r}: must return y or (y, z), arrays of "
+                             f"numbers") from None
+        if y.size != base.n:
+            raise InputError(f"sampler returned {y.size} values: the system has {base.n} "
                              f"states")
-        return y, np.asarray(z, dtype=float).ravel()
+        if z.size != z0.size:
+            raise InputError(f"sampler returned a discrete state z of {z.size} values: the "
+                             f"system's has {z0.size} (its z0)")
+        if not (np.all(np.isfinite(y)) and np.all(np.isfinite(z))):
+            raise InputError(f"sampler returned a non-finite state (y = {y.tolist()!r}): every "
+                             f"starting state must be finite")
+        return y, z
     return sample
 
 
@@ -350,9 +423,14 @@ class _Run:
     onsets: float              # onsets per period over the recorded span
     permanent: bool
     memory: dict
-    period: int
+    period: int                # the period test's period (tolerance ``tol``)
     tol: float
     message: str = ""
+    near: int = 0              # near-periodic period (NEAR_TOL; flows), else = period
+    Zp: list = field(default_factory=list)     # discrete states at the last points (<= 2 P)
+    ret_time: float = math.nan  # mean time per section step (s)
+    orbit: int = -1            # index of the census orbit the run lies on (-1: none)
+    step_onsets: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
 def _record_map(system, y, transient, record, escape):
@@ -377,17 +455,64 @@ def _record_map(system, y, transient, record, escape):
     return X, "ok", ""
 
 
+def _record_poincare(pmap, y, z, transient, record):
+    """Iterate a Poincaré map: the transient, then ``record`` crossings. (X, Z, onsets per
+    contact event over the recorded steps, mean return time, status, message)."""
+    x = pmap.pack(y, z)
+    zz = np.array(z, dtype=float)
+    X, Z, times, per_step = [], [], [], []
+    onsets = np.zeros(pmap.contacts.size, dtype=np.int64)
+    try:
+        for k in range(transient + record):
+            st = pmap.step(x, zz, relabel=(k == 0))
+            x, zz = st.x, st.z
+            if k >= transient:
+                X.append(x)
+                Z.append(zz)
+                times.append(st.time)
+                if st.onsets.size:
+                    onsets += st.onsets
+                    per_step.append(np.asarray(st.onsets, dtype=np.int64))
+    except SolveError as e:
+        return (np.array(X).reshape(len(X), pmap.n), Z, onsets,
+                float(np.mean(times)) if times else math.nan, "failed", str(e),
+                np.array(per_step, dtype=np.int64).reshape(len(per_step), pmap.contacts.size))
+    return (np.array(X), Z, onsets, float(np.mean(times)), "ok", "",
+            np.array(per_step, dtype=np.int64).reshape(len(per_step), pmap.contacts.size))
+
+
 def _one_run(ctx, y, z) -> _Run:
     """Transient and section of one start (never raises for a failed integration)."""
     system, smap = ctx["system"], ctx["map"]
-    if smap is None:
+    Zs: list = []
+    ret = math.nan
+    step_onsets = np.zeros((0, 0), dtype=np.int64)
+    w = max(16, ctx["record"] // 2)         # the settled window: the last half of the record
+    if ctx["kind"] == "map":
         X, status, msg = _record_map(system, y, ctx["transient"], ctx["record"], ctx["escape"])
         zz = np.zeros(0)
         onsets, permanent, memory = math.nan, False, {}
+        ret = 1.0
+    elif ctx["kind"] == "poincare":
+        X, Zs, ons, ret, status, msg, step_onsets = _record_poincare(
+            smap, y, z, ctx["transient"], ctx["record"])
+        zz = np.array(Zs[-1]) if Zs else np.array(z, dtype=float)
+        if status != "ok":
+            last = X[-1] if X.shape[0] else y
+            if not np.all(np.isfinite(np.asarray(last, dtype=float))):
+                status = "escaping"
+        n_rec = max(1, X.shape[0])
+        onsets = float(np.sum(ons)) / n_rec if ons.size else math.nan
+        if step_onsets.shape[0] == X.shape[0] and X.shape[0] and step_onsets.size:
+            onsets = float(np.mean(np.sum(step_onsets[-w:], axis=1)))
+        permanent, memory = False, {}
     else:
         x = smap.pack(y, z)
         sr = smap.orbit(x, z, ctx["record"], transient=ctx["transient"])
         X, zz = sr.X, sr.z
+        Zs = list(sr.Z) if sr.Z is not None else []
+        step_onsets = np.asarray(sr.step_onsets, dtype=np.int64)
+        ret = smap.T
         status, msg = ("ok", "") if sr.success else ("failed", sr.message)
         if not sr.success:
             last = X[-1] if X.shape[0] else sr.y_start
@@ -397,21 +522,41 @@ def _one_run(ctx, y, z) -> _Run:
                 status = "escaping"
         n_rec = max(1, X.shape[0])
         onsets = float(np.sum(sr.onsets)) / n_rec if sr.onsets.size else math.nan
+        known = step_onsets.shape[0] == X.shape[0] and X.shape[0] > 0 and step_onsets.size > 0
+        if known:       # onsets per period over the settled window (not the record's start)
+            onsets = float(np.mean(np.sum(step_onsets[-w:], axis=1)))
         permanent, memory = False, {}
         if smap.memory.size and X.shape[0]:
+            # permanent contact: closed at every point of the settled window, with no onset
+            # in it (a run that had onsets early in the record and then stayed in contact is
+            # on a member of the continuum, not on an impacting orbit)
             names = smap.state_names[smap.n_y:]
             for j, e in enumerate(smap.memory_events):
                 if e < 0:
                     continue
                 jc = int(np.nonzero(smap.contacts == e)[0][0])
-                if sr.onsets[jc] == 0 and np.all(sr.gaps[:, jc] > 0.0):
+                none = (int(np.sum(step_onsets[-w:, jc])) == 0 if known
+                        else sr.onsets[jc] == 0)
+                if none and np.all(sr.gaps[-w:, jc] > 0.0):
                     permanent = True
                     memory[names[j]] = float(X[-1, smap.n_y + j])
     scales, angles = ctx["scales"], ctx["angles"]
     tol = ctx["period_tol"] * _extent(X, scales) + ctx["tol_floor"]
-    period = (section_period(X, scales, tol=tol, max_period=ctx["max_period"], angles=angles)
-              if status == "ok" else 0)
-    return _Run(status, X, zz, onsets, permanent, memory, period, tol, msg)
+    period = near = 0
+    if status == "ok":
+        # the period test over the last half of the record (the first half: the run settling)
+        w = max(16, X.shape[0] // 2)
+        period = section_period(X, scales, tol=tol, max_period=ctx["max_period"], angles=angles,
+                                window=w)
+        near = period if ctx["kind"] == "map" else section_period(
+            X, scales, tol=max(tol, NEAR_TOL), max_period=ctx["max_period"], angles=angles,
+            window=w)
+    keep = 2 * ctx["max_period"]
+    step_onsets = (np.sum(step_onsets, axis=1) if step_onsets.ndim == 2 and
+                   step_onsets.shape[0] == X.shape[0] and step_onsets.shape[1]
+                   else np.zeros(0, dtype=np.int64))      # empty: unknown (an overflowed log)
+    return _Run(status, X, zz, onsets, permanent, memory, period, tol, msg, near=near,
+                Zp=[np.array(q) for q in Zs[-keep:]], ret_time=ret, step_onsets=step_onsets)
 
 
 def _run_start(ctx, i, y, z):
@@ -428,22 +573,153 @@ def _exponent(ctx, run: _Run, seed: int, rtol_factor: float = 1.0, span_factor: 
     rtol_factor / span_factor: the verdict check's tighter tolerance and longer span."""
     from nld.analysis.lyapunov import lyapunov_tangent
     system, smap = ctx["system"], ctx["map"]
-    s = copy.copy(system)
-    if smap is None:
+    if ctx["kind"] == "map":
+        s = copy.copy(system)
         s.y0 = np.array(run.X[-1], dtype=float)
         res = lyapunov_tangent(s, transient=0, total=int(ctx["record_lyap"] * span_factor),
                                seed=seed, progress=False)
         return float(res.exponent), float(np.ravel(res.uncertainty)[0]), ""
-    y, zz = smap.unpack(run.X[-1], run.z)
+    flow = _flow_of(system)
+    s = copy.copy(flow)
+    zlast = run.Zp[-1] if run.Zp else run.z
+    y, zz = smap.unpack(run.X[-1], zlast)
     s.y0, s.z0 = y, zz
+    span = ctx["record_lyap"] * span_factor * run.ret_time
     try:
-        res = lyapunov_tangent(s, transient=0.0,
-                               total=ctx["record_lyap"] * span_factor * system.period,
+        res = lyapunov_tangent(s, transient=0.0, total=span,
                                rtol=max(1e-14, ctx["rtol"] * rtol_factor), seed=seed,
                                progress=False)
     except (SolveError, InputError) as e:
         return math.nan, math.nan, str(e)
+    if ctx["kind"] == "poincare":       # per second x the mean return time: per return
+        return (float(res.exponent) * run.ret_time,
+                float(np.ravel(res.uncertainty)[0]) * run.ret_time, "")
     return float(res.per_revolution), float(res.uncertainty_per_revolution), ""
+
+
+# ---------------------------------------------------------------- orbits (Newton shooting)
+def _orbit_tol(orb) -> float:
+    return max(ORBIT_MATCH, 10.0 * float(orb.tolerance))
+
+
+def _distance_to_orbit(ctx, X, orb) -> np.ndarray:
+    """Scaled max-norm distance of each point of X to the nearest point of the orbit."""
+    m = orb.map
+    sc = m.scales
+    D = np.array([[float(np.max(np.abs(m.difference(x, q) / sc))) for q in orb.points]
+                  for x in X])
+    return np.min(D, axis=1) if D.size else np.zeros(0)
+
+
+def _polish(ctx, run: _Run, p: int):
+    """The period-p orbit by Newton shooting (``nld.analysis.orbits.periodic_orbit``) from the
+    run's last p points; None where Newton does not converge, the orbit is not of prime period
+    p, or it is unstable (module docstring, step 3)."""
+    from nld.analysis.orbits import periodic_orbit, prime_period
+    m = ctx["orbit_map"]
+    if run.X.shape[0] < p:
+        return None
+    guess = run.X[-p:]
+    z = run.Zp[-p] if len(run.Zp) >= p else None
+    try:
+        orb = periodic_orbit(m, p, guess if p > 1 else guess[0], z=z,
+                             check=ctx["kind"] != "map", max_iter=POLISH_ITER)
+    except (SolveError, InputError, FloatingPointError, np.linalg.LinAlgError, ValueError):
+        return None
+    if not orb.converged or not np.all(np.isfinite(orb.points)):
+        return None
+    if prime_period(m, orb.points, _orbit_tol(orb)) != p:
+        return None
+    if getattr(orb, "memory_neutral", orb.continuum):
+        return None         # a member of a permanent-contact continuum: that class, not this
+    stability = getattr(orb, "stability", None)
+    if stability is not None and stability != "stable":
+        return None
+    if stability is None and orb.stable is False:
+        return None
+    return orb
+
+
+def _lies_on(ctx, run: _Run, orb, approach: bool = False) -> bool:
+    """The run is on the orbit: every recorded point of its last max(2p, 8) within NEAR_TOL
+    (flows; a map: 10 x its period tolerance) of an orbit point, and its contact onsets a whole
+    number per period as the orbit's. ``approach``: it is enough that the run's distance to the
+    orbit fell by half over the recorded span and it ends within 10 NEAR_TOL (a run still
+    converging: a stable orbit with a multiplier near 1)."""
+    p = orb.period
+    if run.X.shape[0] < 2 * p:
+        return False
+    near = NEAR_TOL if ctx["kind"] != "map" else max(10.0 * run.tol, _orbit_tol(orb))
+    d = _distance_to_orbit(ctx, run.X[-max(2 * p, 8):], orb)
+    ok = bool(np.all(d <= near))
+    if not ok and approach:
+        q = max(2, run.X.shape[0] // 4)
+        d0 = _distance_to_orbit(ctx, run.X[:q], orb)
+        ok = bool(np.max(d) <= 10.0 * near and np.mean(d[-q:] if d.size >= q else d)
+                  <= 0.5 * np.mean(d0))
+    if ok and ctx["kind"] != "map" and orb.onsets.size:
+        # the run's contact onsets in each of its last periods: the orbit's whole number
+        blocks = _onset_blocks(run, p, max(2 * p, 8))
+        ok = blocks is None or bool(np.all(blocks == int(orb.onsets_per_period)))
+    return ok
+
+
+def _onset_blocks(run: _Run, p: int, span: int):
+    """The run's contact onsets in each of its last floor(span / p) whole periods of p steps
+    (None where the per-step counts are not known)."""
+    s = run.step_onsets
+    if s.size == 0 or s.size < p:
+        return None
+    k = max(1, min(span, s.size) // p)
+    return s[s.size - k * p:].reshape(k, p).sum(axis=1)
+
+
+def _same_orbit(a, b) -> bool:
+    """Two orbits of one period are one when a point of one is a point of the other (any cyclic
+    shift), to max(ORBIT_MATCH, 10 x their Newton tolerance) in the scaled max-norm."""
+    if a.period != b.period:
+        return False
+    m, tol = a.map, max(_orbit_tol(a), _orbit_tol(b))
+    return any(float(np.max(np.abs(m.difference(a.points[0], q) / m.scales))) <= tol
+               for q in b.points)
+
+
+def _assign_orbit(ctx, orbits: list, run: _Run, p: int, approach: bool = False) -> int:
+    """The index in ``orbits`` of the census orbit that the run lies on (found before, or by
+    Newton from the run and appended); -1 for none."""
+    for k, orb in enumerate(orbits):
+        if orb.period == p and _lies_on(ctx, run, orb, approach):
+            return k
+    orb = _polish(ctx, run, p)
+    if orb is None or not _lies_on(ctx, run, orb, approach):
+        return -1
+    for k, o in enumerate(orbits):
+        if _same_orbit(o, orb):
+            return k
+    orbits.append(orb)
+    return len(orbits) - 1
+
+
+def _best_period(ctx, run: _Run) -> int:
+    """The p <= max_period whose returns ||x_{k+p} - x_k|| over the last half of the record are
+    smallest (the smallest p within a factor 2 of the least): the period Newton is tried at for
+    a run that converges (λ1 < 0) without passing the period test; 0 where even the closest
+    returns are farther apart than APPROACH_TOL (scaled)."""
+    X = run.X
+    n = X.shape[0]
+    best = []
+    for p in range(1, ctx["max_period"] + 1):
+        w = n // 2
+        if w < 2 * p:
+            break
+        d = _diff(X[n - w + p:], X[n - w:n - p], ctx["angles"]) / ctx["scales"]
+        best.append(float(np.max(np.abs(d))))
+    if not best:
+        return 0
+    lo = min(best)
+    if lo > APPROACH_TOL:
+        return 0            # no return close enough for Newton to start from
+    return next(p + 1 for p, v in enumerate(best) if v <= 2.0 * lo)
 
 
 # ---------------------------------------------------------------- grouping
@@ -461,9 +737,10 @@ def _same(ctx, a: _Run, b: _Run, extent: float) -> bool:
     return d <= lim
 
 
-def _group(ctx, runs: list) -> list[list[int]]:
-    """Runs (settled ones) grouped: periodic by period and orbit, permanent contact, others."""
-    ok = [i for i, r in enumerate(runs) if r.status == "ok" and r.X.shape[0]]
+def _group(ctx, runs: list, skip=()) -> list[list[int]]:
+    """Runs (settled ones, not in ``skip``) grouped: periodic by period and orbit, permanent
+    contact, others."""
+    ok = [i for i, r in enumerate(runs) if r.status == "ok" and r.X.shape[0] and i not in skip]
     extent = _extent(np.concatenate([runs[i].X[-64:] for i in ok]), ctx["scales"]) if ok else 0.0
     groups: list[list[int]] = []
     for i in ok:
@@ -543,22 +820,36 @@ def _context(system, rtol, transient, record, max_period, period_tol, match_fact
     from nld.systems.derived import StroboscopicMap
     ctx = dict(system=system, max_period=int(max_period), period_tol=float(period_tol),
                match_factor=float(match_factor), escape=float(escape), n=system.n)
+    if isinstance(system, PoincareMap):
+        if rtol is not None and float(rtol) != system.rtol:
+            raise InputError(f"rtol = {rtol!r}: a PoincareMap carries its own tolerance "
+                             f"(rtol = {system.rtol:g}); build it with PoincareMap(..., rtol=...)")
+        ctx.update(kind="poincare", map=system, orbit_map=system, rtol=system.rtol,
+                   tol_floor=1e3 * system.rtol * math.sqrt(system.n), scales=system.scales,
+                   angles=np.asarray(system.angle_states, dtype=np.int64),
+                   transient=int(DEFAULTS["transient"] if transient is None else transient),
+                   record=int(DEFAULTS["record"] if record is None else record))
+        ctx["record_lyap"] = ctx["record"]
+        return ctx
     if system.is_map:
         if getattr(system, "is_derived", False):
-            raise InputError(f"{system.name}: give the flow itself (the census samples its "
-                             f"stroboscopic section)")
-        ctx.update(map=None, rtol=None, tol_floor=1e-10,
+            raise InputError(f"{system.name}: give the forced flow itself (the census samples its "
+                             f"stroboscopic section), or a PoincareMap of an autonomous flow")
+        ctx.update(kind="map", map=None, orbit_map=NumbaMap(system), rtol=None, tol_floor=1e-10,
                    scales=np.ones(system.n), angles=np.zeros(0, dtype=np.int64),
                    transient=int(DEFAULTS["map_transient"] if transient is None else transient),
                    record=int(DEFAULTS["map_record"] if record is None else record))
         ctx["record_lyap"] = max(1000, 10 * ctx["record"])
         return ctx
     if system.period is None:
-        raise InputError(f"{system.name} has no forcing period: the census samples a stroboscopic "
-                         f"section (one period of the forcing); give a forced flow or a map")
+        raise InputError(f"{system.name} is an autonomous flow (no forcing period): give "
+                         f"section=(normal, offset) or section=(normal, offset, direction), or "
+                         f"a PoincareMap(system, normal, offset), and the census samples that "
+                         f"Poincaré section")
     rtol = LYAPUNOV.rtol if rtol is None else float(rtol)
     smap = StroboscopicMap(system, rtol=rtol)
-    ctx.update(map=smap, rtol=rtol, tol_floor=1e3 * rtol * math.sqrt(smap.n),
+    ctx.update(kind="stroboscopic", map=smap, orbit_map=smap, rtol=rtol,
+               tol_floor=1e3 * rtol * math.sqrt(smap.n),
                scales=smap.scales, angles=np.asarray(smap.angle_states, dtype=np.int64),
                transient=int(DEFAULTS["transient"] if transient is None else transient),
                record=int(DEFAULTS["record"] if record is None else record))
@@ -573,26 +864,70 @@ def _check_int(name, v, lo):
     return int(v)
 
 
+def _whole_onsets(run: _Run) -> bool:
+    """A period-p run (no orbit from Newton) has the same whole number of contact onsets in each
+    period of the last half of its record (where the period test looked); without per-step
+    counts: its count over the recorded span is a whole number x the periods, give or take one
+    period's."""
+    if not math.isfinite(run.onsets) or not run.period:
+        return True
+    blocks = _onset_blocks(run, run.period, max(16, run.X.shape[0] // 2))
+    if blocks is not None:
+        return bool(np.all(blocks == blocks[0]))
+    n_rec = run.X.shape[0]
+    total = run.onsets * n_rec
+    k = round(total * run.period / n_rec)
+    return abs(total - k * n_rec / run.period) <= k + 1e-9 and (
+        k > 0 or total == 0)
+
+
+def _orbit_lambda(orb):
+    """(λ1, uncertainty) per period of an orbit: ln max|μ| / p (a continuum's neutral memory
+    multiplier left out) and its uncertainty from the multipliers' error; and that error of
+    max|μ|."""
+    amu = np.abs(np.asarray(orb.multipliers))
+    if amu.size == 0:
+        return math.nan, math.nan, math.nan
+    consider = amu
+    if getattr(orb, "memory_neutral", getattr(orb, "continuum", False)) and amu.size > 1:
+        consider = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
+    mx = float(np.max(consider))
+    err = getattr(orb, "multiplier_uncertainty", None)
+    if err is None or not math.isfinite(err):
+        e = np.asarray(orb.multiplier_error, dtype=float)
+        err = float(np.max(e)) if e.size else 0.0
+    lam = math.log(mx) / orb.period if mx > 0 else -math.inf
+    unc = (err / mx / orb.period) if mx > 0 else math.nan
+    return lam, unc, float(err)
+
+
 def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int = 0,
            transient: int | None = None, record: int | None = None, rtol: float | None = None,
            max_period: int = DEFAULTS["max_period"], period_tol: float = DEFAULTS["period_tol"],
            match_factor: float = DEFAULTS["match_factor"],
            lyapunov_members: int = DEFAULTS["lyapunov_members"],
            rate_spread: float = DEFAULTS["rate_spread"], escape: float = DEFAULTS["escape"],
-           workers: int = 1, dask=None, check: bool = True, progress=None) -> CensusResult:
+           workers: int = 1, dask=None, check: bool = True, progress=None,
+           section=None) -> CensusResult:
     """The attractors reached from ``starts`` seeded starting states (module docstring).
 
-    system: a forced flow (a scene system: ``SceneSystem``; a ContinuousSystem with a period) or
-    a map (``DiscreteMap``). sampler: the starts (default for a scene: its assembled state
-    spread across the clearance circles; otherwise required: ``sampler(rng) -> y`` or ``(y,
-    z)``, or a box ``(lo, hi)``). transient / record: periods (map: iterations) discarded and
+    system: a forced flow (a scene system: ``SceneSystem``; a ContinuousSystem with a period), a
+    map (``DiscreteMap``), or an autonomous flow through a Poincaré map: a
+    :class:`nld.systems.PoincareMap`, or the flow with ``section=(normal, offset[,
+    direction])`` (the hyperplane normal . y = offset crossed in direction +1 or -1; the
+    census's period is then one return). sampler: the starts (default for a scene: its
+    assembled state spread across the clearance circles; otherwise required: ``sampler(rng) ->
+    y`` or ``(y, z)``, or a box ``(lo, hi)``; the flow's states for a Poincaré map).
+    transient / record: periods (map: iterations; Poincaré map: returns) discarded and
     recorded per run (defaults 50 / 100; maps 1000 / 200). rtol: the integrations' tolerance
     (default ``nld.settings.LYAPUNOV.rtol``). workers / dask: the runs and exponents of a
     scene on a local process pool or a Dask cluster (``nld.sweeps.executors``; each worker
     builds the scene's system from its compiled kernel); other systems run in this process.
     check: recompute λ1 of every chaotic or quasi-periodic attractor at CHECK_RTOL x rtol over
     CHECK_SPAN x the span from the same state; its ``verdict`` holds only if both agree (else
-    "not established", nld.analysis.verdict). The other settings: module docstring, DEFAULTS.
+    "not established", nld.analysis.verdict). Periodic attractors are the orbits of Newton
+    shooting (``nld.analysis.orbits.periodic_orbit``) that their runs lie on (module
+    docstring, step 3). The other settings: module docstring, DEFAULTS.
     The result does not depend on where the runs ran.
     """
     import pandas as pd
@@ -600,15 +935,28 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
     from nld.analysis.verdict import (CHAOTIC, NOT_ESTABLISHED, exponent_verdict, kind_verdict,
                                       verdict as verdict_rule)
     from nld.progress import progress_bar
+    from nld.sweeps.executors import check_workers
     starts = _check_int("starts", starts, 1)
     seed = check_seed(seed)
     max_period = _check_int("max_period", max_period, 1)
     lyapunov_members = _check_int("lyapunov_members", lyapunov_members, 1)
+    if workers is not None:
+        check_workers(workers)
     for nm, v in (("transient", transient), ("record", record)):
         if v is not None:
             _check_int(nm, v, 0 if nm == "transient" else 16)
     if not (0 < period_tol < 1):
         raise InputError(f"period_tol = {period_tol!r}: must be in (0, 1)")
+    if section is not None:
+        if getattr(system, "is_map", False) or getattr(system, "period", None) is not None:
+            raise InputError("section: only for an autonomous flow (a forced flow is sampled "
+                             "once per forcing period, a map is its own section)")
+        if not isinstance(section, (tuple, list)) or len(section) not in (2, 3):
+            raise InputError(f"section = {section!r}: must be (normal, offset) or (normal, "
+                             f"offset, direction)")
+        system = PoincareMap(system, section[0], section[1],
+                             section[2] if len(section) == 3 else 1, rtol=rtol)
+        rtol = None
     ctx = _context(system, rtol, transient, record, max_period, period_tol, match_factor, escape)
     sample = _as_sampler(system, sampler, rate_spread)
     rng = np.random.default_rng(seed)
@@ -621,7 +969,15 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
                             [(i, y, z) for i, (y, z) in enumerate(starts_yz)], workers, dask):
             runs[rec["index"]] = rec["run"]
             pb.update(1)
-    groups = _group(ctx, runs)
+    # step 3: near-periodic runs polished by Newton shooting; a run on a stable orbit is periodic
+    orbits: list = []
+    for r in runs:
+        if r.status == "ok" and not r.permanent and r.near:
+            r.orbit = _assign_orbit(ctx, orbits, r, r.near)
+        if r.orbit < 0 and r.period and not _whole_onsets(r):
+            r.period = 0        # a fractional number of onsets per period: not periodic
+    on_orbit = {i for i, r in enumerate(runs) if r.orbit >= 0}
+    groups = _group(ctx, runs, skip=on_orbit)
     labels = np.full(starts, -2, dtype=np.int64)
     kinds = [""] * starts
     for i, r in enumerate(runs):
@@ -630,10 +986,14 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
     attractors = []
     unsettled = []
     pname = getattr(system, "period_name", "iteration" if system.is_map else "period")
-    members = [(gi, m, runs[m]) for gi, g in enumerate(groups) for m in g[:lyapunov_members]]
+    by_orbit = {}
+    for i in sorted(on_orbit):
+        by_orbit.setdefault(runs[i].orbit, []).append(i)
+    members = ([m for g in groups for m in g[:lyapunov_members]]
+               + [m for g in by_orbit.values() for m in g[:lyapunov_members]])
     lams = {rec["index"]: rec["lambda"]
             for rec in _execute(_census_exponent, payload, ctx,
-                                [(m, run, seed) for _, m, run in members], workers, dask)}
+                                [(m, runs[m], seed) for m in members], workers, dask)}
     for g in groups:
         head = runs[g[0]]
         lam_runs = [(m,) + lams[m][:2] for m in g[:lyapunov_members]]
@@ -654,6 +1014,23 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             kind = (CHAOTIC if v == CHAOTIC else
                     "quasi-periodic" if v == "uncertain" and unc <= QUASI_PERIODIC_UNC
                     else "unsettled")
+        if kind == "unsettled":
+            # a run converging (λ1 < 0, or not resolved) without passing the period test: Newton
+            # from its end at the period of its closest returns; on a stable orbit that it
+            # approaches, it is periodic
+            rest = []
+            for i in g:
+                p = _best_period(ctx, runs[i])
+                k = _assign_orbit(ctx, orbits, runs[i], p, approach=True) if p else -1
+                if k >= 0:
+                    runs[i].orbit = k
+                    by_orbit.setdefault(k, []).append(i)
+                else:
+                    rest.append(i)
+            g = rest
+            if not g:
+                continue
+            head = runs[g[0]]
         word, chk = kind_verdict(kind), None
         if kind in (CHAOTIC, "quasi-periodic") and check:
             # the verdict holds only across a change of tolerance and averaging span on the same
@@ -680,6 +1057,19 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
                     a, b = mem.get(k, (v, v))
                     mem[k] = (min(a, v), max(b, v))
         ons = [runs[i].onsets for i in g if math.isfinite(runs[i].onsets)]
+        per_orbit = None
+        if kind == "periodic" and period:
+            # the whole number per period of the settled window (_whole_onsets checked it)
+            blocks = [_onset_blocks(runs[i], period, max(16, runs[i].X.shape[0] // 2))
+                      for i in g]
+            got = {int(b[0]) for b in blocks if b is not None and b.size}
+            if len(got) == 1:
+                per_orbit = got.pop()
+                ons = [per_orbit / period]
+        note = ("orbits of a continuum selected by the recorded memory (history-dependent)"
+                if head.permanent else
+                "not polished: Newton shooting did not converge to a stable orbit from its runs"
+                if kind == "periodic" else "")
         attractors.append(Attractor(
             id=0, kind=kind, period=int(period), count=len(g), fraction=len(g) / starts,
             fraction_interval=wilson_interval(len(g), starts), points=head.X[-64:].copy(),
@@ -687,11 +1077,39 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             onsets_per_period=float(np.mean(ons)) if ons else math.nan,
             conditional_on_memory=mem, runs=list(g), verdict=word,
             lambda1_check=chk[0] if chk else math.nan,
-            lambda1_check_uncertainty=chk[1] if chk else math.nan,
-            note=("orbits of a continuum selected by the recorded memory (history-dependent)"
-                  if head.permanent else "")))
+            lambda1_check_uncertainty=chk[1] if chk else math.nan, note=note,
+            onsets_per_orbit=per_orbit))
         for i in g:
             kinds[i] = kind
+    for k, g in sorted(by_orbit.items()):
+        orb = orbits[k]
+        lam_runs = [(m,) + lams[m][:2] for m in g if m in lams][:max(lyapunov_members, 1)]
+        las = np.array([v[1] for v in lam_runs], dtype=float)
+        uns = np.array([v[2] for v in lam_runs], dtype=float)
+        fin = np.isfinite(las)
+        lt = float(np.mean(las[fin])) if fin.any() else math.nan
+        ut = (float(np.max(uns[fin]) + 0.5 * (np.max(las[fin]) - np.min(las[fin])))
+              if fin.any() else math.nan)
+        if ctx["kind"] == "poincare":
+            # an autonomous flow's λ1 on a limit cycle is that of the flow direction, 0: the
+            # tangent estimate checks nothing here
+            lt = ut = math.nan
+        lam, unc, err = _orbit_lambda(orb)
+        ons = int(orb.onsets_per_period) if orb.onsets.size else None
+        stab = getattr(orb, "stability", None) or ("stable" if orb.stable else "undecided")
+        attractors.append(Attractor(
+            id=0, kind="periodic", period=int(orb.period), count=len(g),
+            fraction=len(g) / starts, fraction_interval=wilson_interval(len(g), starts),
+            points=np.array(orb.points), lambda1=lam, lambda1_uncertainty=unc,
+            lambda1_runs=lam_runs,
+            onsets_per_period=(ons / orb.period) if ons is not None else math.nan,
+            runs=sorted(g), verdict=kind_verdict("periodic"), onsets_per_orbit=ons,
+            multipliers=np.array(orb.multipliers), multiplier_error=err,
+            orbit_residual=float(orb.residual), orbit=orb, lambda1_tangent=lt,
+            lambda1_tangent_uncertainty=ut,
+            note="" if stab == "stable" else f"orbit stability {stab}"))
+        for i in g:
+            kinds[i] = "periodic"
     escaping = [i for i, r in enumerate(runs) if r.status == "escaping"]
     if escaping:
         attractors.append(Attractor(id=0, kind="escaping", period=0, count=len(escaping),
@@ -709,24 +1127,28 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
         if r.status == "failed":
             kinds[i] = "failed"
     table = pd.DataFrame({"start": np.arange(starts), "attractor": labels, "kind": kinds,
-                          "period": [r.period for r in runs],
+                          "period": [orbits[r.orbit].period if r.orbit >= 0 else r.period
+                                     for r in runs],
                           "onsets_per_period": [r.onsets for r in runs],
                           "permanent_contact": [r.permanent for r in runs],
                           "message": [r.message for r in runs]})
     settings = dict(starts=starts, seed=seed, transient=ctx["transient"], record=ctx["record"],
                     rtol=ctx["rtol"], max_period=max_period, period_tol=period_tol,
+                    near_tol=NEAR_TOL if ctx["kind"] != "map" else None,
                     match_factor=match_factor, lyapunov_members=lyapunov_members,
                     rate_spread=rate_spread, escape=escape,
+                    section=(repr(system) if ctx["kind"] == "poincare" else ctx["kind"]),
+                    orbits="Newton shooting (nld.analysis.orbits.periodic_orbit) from the runs "
+                           "that are near-periodic or converge (λ1 < 0)",
                     lyapunov="tangent, %d %ss from the end of the section" % (
                         ctx["record_lyap"], pname),
                     sampler="scene default" if sampler is None else repr(sampler),
                     check=(f"chaotic / quasi-periodic attractors: λ1 again at {CHECK_RTOL:g} x rtol "
                            f"over {CHECK_SPAN:g} x the span" if check else "none"))
+    names = (ctx["map"].state_names if ctx["map"] is not None else system.state_names)
     return CensusResult(system=system.name, attractors=attractors, n_starts=starts,
                         unsettled=len(unsettled), failed=failed, runs=table, settings=settings,
-                        period_name=pname,
-                        state_names=list(ctx["map"].state_names if ctx["map"] is not None
-                                         else system.state_names),
+                        period_name=pname, state_names=list(names),
                         scales=np.asarray(ctx["scales"]), angles=np.asarray(ctx["angles"]))
 
 
@@ -862,7 +1284,8 @@ def census_sweep(scene, param: str, values, *, overrides=(), out=None, resume: b
     if not values or not all(math.isfinite(v) for v in values):
         raise InputError(f"values = {values!r}: give finite parameter values")
     base = resolve_scene(scene, list(overrides))
-    resolve_scene(base, [f"{param}={values[0]!r}"])        # the key is checked before any run
+    for v in values:            # the key and every value checked before any run
+        resolve_scene(base, [f"{param}={v!r}"])
     bad = set(census_kw) - {"starts", "seed", "transient", "record", "rtol", "max_period",
                             "period_tol", "match_factor", "lyapunov_members", "rate_spread",
                             "escape"}

@@ -10,7 +10,8 @@
   scene, state of an ODE) crossing a level. Crossings are bracketed on a fine output grid and then
   located by ``nld.systems.section.locate_crossing`` (Brent on landing integrations, the routine
   of :class:`nld.systems.PoincareMap`), or on a Hermite interpolant (see the function).
-* :func:`period_of` -- period-n detection of a sequence of section points.
+* :func:`period_of` -- period-n detection of a sequence of section points, by
+  :func:`section_period`, the one period test of nld (the attractor census uses it too).
 
 Scenes are given as a :class:`~nld.model.scene_model.Scene`, a built-in name or a TOML path plus
 ``overrides`` (as ``nld --set``); any other ODE as a :class:`nld.systems.ContinuousSystem` (a numba
@@ -30,7 +31,7 @@ from nld.errors import InputError, Interrupted
 from nld.settings import LYAPUNOV, POINCARE_SPANS, SECTIONS
 
 __all__ = ["Section", "stroboscopic", "stroboscopic_rhs", "hyperplane_section", "period_of",
-           "section_scales",
+           "section_period", "section_scales",
            "default_observables", "check_scene_observables"]
 
 TWO_PI = 2.0 * math.pi
@@ -605,6 +606,37 @@ def section_scales(scene, columns) -> np.ndarray:
     return out
 
 
+def section_period(X, scales=None, *, tol: float, max_period: int, angles=None,
+                   window: int | None = None) -> int:
+    """The period test of nld: the smallest p <= max_period with max_i ||x_{i+p} - x_i|| <= tol
+    over the last ``window`` points of X (default all), 0 for none (not periodic, or not settled).
+
+    X: (n, N) section points, oldest first. The norm is the max-norm of the differences divided
+    by ``scales`` (one per coordinate; default 1), angle coordinates (indices ``angles``) wrapped
+    into [-pi, pi) first -- the scaled max-norm of the shooting residual of
+    ``nld.analysis.orbits.periodic_orbit``. Period p needs at least p pairs (every phase repeats
+    at least once), so n >= 2p. :func:`period_of` (``nld poincare``, bifurcation diagrams, chaos
+    maps) and the attractor census (``nld.analysis.attractors``) both decide with this test."""
+    X = np.asarray(X, dtype=float)
+    if X.ndim == 1:
+        X = X[:, None]
+    if window is not None:
+        X = X[-int(window):]
+    n = X.shape[0]
+    if n < 2 or not np.all(np.isfinite(X)):
+        return 0
+    sc = np.ones(X.shape[1]) if scales is None else np.broadcast_to(
+        np.asarray(scales, dtype=float), (X.shape[1],))
+    ang = np.zeros(0, dtype=np.int64) if angles is None else np.asarray(angles, dtype=np.int64)
+    for p in range(1, min(int(max_period), n // 2) + 1):
+        d = X[p:] - X[:-p]
+        if ang.size:
+            d[:, ang] -= 2.0 * math.pi * np.floor((d[:, ang] + math.pi) / (2.0 * math.pi))
+        if float(np.max(np.abs(d / sc))) <= tol:
+            return p
+    return 0
+
+
 def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MAX, *,
               scale=None, window: int | None = None) -> int:
     """Smallest period n <= n_max of a sequence of section points, 0 for none (aperiodic).
@@ -616,7 +648,8 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
     :func:`section_scales` gives the clearance for eccentricity components, so a fixed point
     whose eccentricity is near 0 is not judged on its own tiny range). Period n holds when
     max |p[i+n] - p[i]| / scale <= tol for every i in the last ``window`` points (default all)
-    and at least n such pairs exist (every phase repeats at least once), so N >= 2n is needed.
+    and at least n such pairs exist (every phase repeats at least once), so N >= 2n is needed:
+    :func:`section_period`, the one period test of nld, on these scales.
     """
     if isinstance(points, pd.DataFrame):
         cols = [c for c in points.columns if c not in ("rev", "crossing", "t")
@@ -637,9 +670,4 @@ def period_of(points, tol: float = DEFAULT_PERIOD_TOL, n_max: int = DEFAULT_N_MA
     keep = s > 0
     if not np.any(keep):
         return 1
-    Q = P[:, keep] / s[keep]
-    N = len(Q)
-    for n in range(1, min(int(n_max), N // 2) + 1):
-        if np.max(np.abs(Q[n:] - Q[:-n])) <= tol:
-            return n
-    return 0
+    return section_period(P[:, keep], s[keep], tol=tol, max_period=n_max)

@@ -101,7 +101,8 @@ def _json_attractor(a) -> dict:
     keys = ("kind", "fraction", "fraction_interval", "lambda1_per_revolution",
             "lambda1_uncertainty", "onsets_per_period", "period", "count",
             "conditional_on_memory", "note", "verdict", "lambda1_check",
-            "lambda1_check_uncertainty")
+            "lambda1_check_uncertainty", "onsets_per_orbit", "multipliers", "multiplier_error",
+            "orbit_residual", "orbit_points", "lambda1_tangent", "lambda1_tangent_uncertainty")
     return {k: d[k] for k in keys}
 
 

@@ -86,7 +86,9 @@ class SectionRun:
     wrapped: as integrated) and discrete states at the points. status, t_reached, stats: the
     integrator's status (``nld.run.simulate.INTERRUPTED`` after Ctrl-C), where it stopped (s) and
     its counters (steps, accepted, rejected, rhs, events ...). z_reached: the discrete state
-    where the integration stopped (that of the last point when it succeeded).
+    where the integration stopped (that of the last point when it succeeded). step_onsets:
+    (m, n_contacts) the onsets of each contact event in the step that ends at each point, t in
+    (t_k - T, t_k] (empty where the event log overflowed).
     """
     X: np.ndarray
     z: np.ndarray
@@ -102,6 +104,7 @@ class SectionRun:
     t_reached: float = math.nan
     stats: np.ndarray = field(default_factory=lambda: np.zeros(5, dtype=np.int64))
     z_reached: np.ndarray | None = None
+    step_onsets: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
 
 
 def contact_events(system) -> np.ndarray:
@@ -426,9 +429,28 @@ class StroboscopicMap(_FlowMap):
                                                                  self.rtol, atol)
         Z = np.array(out.Z[:m])
         z_end = np.array(Z[-1]) if m else np.array(zz)
-        return self._section_run(te[:m], np.array(out.Y[:m]), Z, onsets, ok, msg, y,
-                                 int(out.status), float(out.t), out.stats, z_end, z_end,
-                                 shift=transient * self.T)
+        run = self._section_run(te[:m], np.array(out.Y[:m]), Z, onsets, ok, msg, y,
+                                int(out.status), float(out.t), out.stats, z_end, z_end,
+                                shift=transient * self.T)
+        if out.n_ev < _MAX_LOG + 400 * n:
+            run.step_onsets = self._step_onsets(te[:m], out.ev_t[:out.n_ev],
+                                                out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev])
+        return run
+
+    def _step_onsets(self, te, ev_t, ev_k, ev_dir) -> np.ndarray:
+        """(m, n_contacts): the onsets of each contact event in each step (te_k - T, te_k]
+        from an event log."""
+        out = np.zeros((te.size, self.contacts.size), dtype=np.int64)
+        if te.size == 0:
+            return out
+        edges = np.concatenate([[te[0] - self.T], te])
+        ev_k, ev_dir = np.asarray(ev_k), np.asarray(ev_dir)
+        for j, e in enumerate(self.contacts):
+            t = np.asarray(ev_t, dtype=float)[(ev_k == e) & (ev_dir > 0)]
+            k = np.searchsorted(edges, t, side="left") - 1     # t in (edges[k], edges[k+1]]
+            k = k[(k >= 0) & (k < te.size)]
+            out[:, j] = np.bincount(k, minlength=te.size)
+        return out
 
     def _count_onsets(self, k, d) -> np.ndarray:
         onsets = np.zeros(self.contacts.size, dtype=np.int64)
@@ -497,6 +519,9 @@ class StroboscopicMap(_FlowMap):
         z_end = np.array(Zm[-1]) if m else np.array(zz)
         run = self._section_run(te[:m], np.array(Y[:m]), Zm, onsets, ok, msg, y, status,
                                 t_reached, st, z_end, z)
+        if n_logged <= max_log:
+            run.step_onsets = self._step_onsets(te[:m], ev_t[:n_logged], ev_k[:n_logged],
+                                                ev_dir[:n_logged])
         if interrupted:
             raise Interrupted(msg or "interrupted", partial=run,
                               kept=f"{m} of {n} section points (t = {t0:g} .. {t_reached:.6g} s)")
