@@ -56,11 +56,12 @@ def test_arclength_crosses_a_kink_by_a_natural_step(impact_orbit, monkeypatch):
     real = cont._arclength_corrector
     state = {"crossed": False, "refused": 0}
 
-    def corrector(fam, like, o_prev, V_pred, t_vec, lam_scale, frozen, tol, max_iter=8):
+    def corrector(fam, like, o_prev, V_pred, t_vec, lam_scale, frozen, tol, max_iter=8,
+                  info=None):
         if not state["crossed"] and V_pred[-1] * lam_scale > 2.0:
             state["refused"] += 1
             return None
-        return real(fam, like, o_prev, V_pred, t_vec, lam_scale, frozen, tol, max_iter)
+        return real(fam, like, o_prev, V_pred, t_vec, lam_scale, frozen, tol, max_iter, info)
 
     real_step = cont._natural_step
 
