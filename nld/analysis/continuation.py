@@ -519,7 +519,7 @@ def _check_owner(fam, orbit: PeriodicOrbit, system, param, tol):
     npts = orbit.period if multiple else 1
     try:
         r, _, _ = _Shooting(m, orbit.period, multiple).evaluate(
-            orbit.points[:npts], [np.array(z) for z in orbit.z[:npts]], False)
+            orbit.points[:npts], [np.array(z) for z in orbit.z[:npts]], True)
         res = float(np.max(np.abs(r)))
     except SolveError as e:
         res, why = math.inf, f" ({e})"
@@ -648,12 +648,31 @@ def _message(fam, ends, vals) -> str:
 
 
 def _end_after_failure(fam, like, o_last, o_first, lam, direction, tol, detail,
-                       offset: float = 0.0) -> BranchEnd:
+                       offset: float = 0.0, probe: bool = False) -> BranchEnd:
     """Why a branch ends at (o_last, lam) where no step succeeded: a fold (a multiplier at +1,
     with the jump target), a grazing (the approach speed at a contact fell towards zero), else a
     Newton failure (detail: the residual)."""
     mu = _critical(o_last)
     near1 = mu[int(np.argmin(np.abs(mu - 1.0)))] if mu.size else None
+    if probe and offset > 0:
+        # natural continuation: a short pseudo-arclength run from the last orbit towards the
+        # failed value tells a fold (the branch turns back before it) from a failed Newton
+        x = lam + direction * offset
+        try:
+            vals, _, ends_p, _ = _arclength(fam, like, o_last, lam, lam, x, offset / 4, 40, tol,
+                                            None, None)
+        except (SolveError, InputError, SceneError, np.linalg.LinAlgError):
+            vals, ends_p = [], []
+        far = [e for e in ends_p if e.direction == direction]
+        if vals and far and not (far[0].reason == "range_end" and abs(far[0].value - x) <=
+                                 1e-9 * max(1.0, abs(x))):
+            turn = max(vals) if direction > 0 else min(vals)
+            if (turn - lam) * direction > 0 and (x - turn) * direction > 0 and \
+                    (vals[-1] - turn) * direction < 0 or far[0].reason == "fold":
+                jt = _jump_target(fam, like, o_last, lam, direction, tol, offset)
+                return BranchEnd(direction, lam, "fold",
+                                 f"the branch turns back at {fam.label} = {turn:.6g} (a fold; "
+                                 f"pseudo-arclength continuation passes it); {jt}")
     if near1 is not None and abs(near1 - 1.0) < 2 * SMOOTH_CROSSING:
         jt = _jump_target(fam, like, o_last, lam, direction, tol, offset)
         return BranchEnd(direction, lam, "fold",
@@ -697,7 +716,7 @@ def _natural(fam, like, orbit, v0, v, tol, progress, on_point):
             except SolveError as e:
                 end = _end_after_failure(fam, like, o_last, orbit, prev[-1][0], direction, tol,
                                          f"the integration failed at {fam.label} = {x:g} ({e})",
-                                         abs(x - prev[-1][0]))
+                                         abs(x - prev[-1][0]), True)
                 break
             done += 1
             if progress is not None:
@@ -707,7 +726,7 @@ def _natural(fam, like, orbit, v0, v, tol, progress, on_point):
                     fam, like, o_last, orbit, prev[-1][0], direction, tol,
                     f"no orbit at the next value {x:g}: Newton's residual {o.residual:.3g} "
                     f"(tolerance {o.tolerance:.3g}; {o.message}); pseudo-arclength "
-                    f"continuation passes folds", abs(x - prev[-1][0]))
+                    f"continuation passes folds", abs(x - prev[-1][0]), True)
                 break
             res[x] = o
             prev.append((x, o))
@@ -1062,6 +1081,20 @@ def _enters_contact(fam, like, o: PeriodicOrbit, value) -> bool:
     return False
 
 
+def _crossing_coordinate(o: PeriodicOrbit, kind: str) -> float:
+    """The quantity that crosses a critical value at the bifurcation: the real multiplier nearest
+    -1 (period doubling), the modulus of the complex pair nearest the unit circle (NS)."""
+    mu = _critical(o)
+    if mu.size == 0:
+        return math.nan
+    if kind == "period_doubling":
+        return float(np.real(mu[int(np.argmin(np.abs(mu + 1.0)))]))
+    cpl = mu[np.abs(mu.imag) > 0]
+    if cpl.size == 0:
+        return math.nan
+    return float(np.abs(cpl[int(np.argmin(np.abs(np.abs(cpl) - 1.0)))]))
+
+
 def _where(fam, v, w, located, why, tol_v) -> str:
     """The located value in words: "at p = v ± w" when located to the requested tolerance, else
     the bracket and why it is wider."""
@@ -1129,6 +1162,17 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol, *, step=None, la
             cpl = _critical(o1)
             cpl = cpl[np.abs(cpl.imag) > 0]
             crit = cpl[int(np.argmin(np.abs(np.abs(cpl) - 1.0)))] if cpl.size else None
+        noise = ""
+        if kind != "fold" and locate and not jump:
+            # the multipliers' own uncertainty moves the crossing too: u / |d(crit)/d(param)|
+            # (the slope from the branch points), added to the bracket's width
+            u = max(_uncertainty(o1), _uncertainty(o2))
+            ca_, cb_ = _crossing_coordinate(oa, kind), _crossing_coordinate(ob, kind)
+            slope = abs(cb_ - ca_) / abs(vb - va) if abs(vb - va) > 0 else 0.0
+            if u > 0 and slope > 0 and math.isfinite(u / slope):
+                w = w + u / slope
+                noise = (f" (bracket plus {u / slope:.2g} from the multipliers' uncertainty "
+                         f"{u:.2g})")
         jt = ""
         if kind == "fold" and locate and beyond and not jump:
             # the attractor beyond the fold, from the bracket's stable side (none: the motion is
@@ -1138,7 +1182,8 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol, *, step=None, la
                 jt = _jump_target(fam, like, st[0], v, beyond, tol,
                                   max(10 * w, 0.1 * step))
         out.append(Bifurcation(kind, float(v), float(w), None if crit is None else complex(crit),
-                               o1, f"{name} {_where(fam, v, w, located, why, locate_tol)}{jump}"
+                               o1, f"{name} {_where(fam, v, w, located, why, locate_tol)}"
+                               f"{noise}{jump}"
                                + (f"; {jt}" if jt else ""), (va, vb), located, "undetermined",
                                jt))
     if ta["contacts"] != tb["contacts"]:
@@ -1482,6 +1527,8 @@ def branch_curves(branches, system, observable: str) -> list[dict]:
                       for v, o in zip(br.values, br.orbits)])
         bifs = [(b.kind, b.value, orbit_observable(fam.at(b.value), b.orbit, observable))
                 for b in br.bifurcations if b.orbit is not None]
+        stab = [orbit_stability(o) for o in br.orbits]
         curves.append({"period": br.period, "values": list(br.values), "y": y,
-                       "stable": [o.stable for o in br.orbits], "bifurcations": bifs})
+                       "stable": [{"stable": True, "unstable": False}.get(x) for x in stab],
+                       "stability": stab, "bifurcations": bifs})
     return curves
