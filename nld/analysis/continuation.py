@@ -1095,6 +1095,22 @@ def _crossing_coordinate(o: PeriodicOrbit, kind: str) -> float:
     return float(np.abs(cpl[int(np.argmin(np.abs(np.abs(cpl) - 1.0)))]))
 
 
+def _crossing_error(o: PeriodicOrbit, kind: str) -> float:
+    """The uncertainty of the crossing multiplier (its |mu(rtol) - mu(10 rtol)|, at least the
+    residual times its modulus): the error of the other multipliers does not move the crossing."""
+    mu = np.asarray(o.multipliers)
+    err = np.asarray(o.multiplier_error, dtype=float)
+    if mu.size == 0:
+        return 0.0
+    if kind == "period_doubling":
+        i = int(np.argmin(np.abs(mu + 1.0)))
+    else:
+        i = int(np.argmin(np.abs(np.abs(mu) - 1.0) + np.where(np.abs(mu.imag) > 0, 0.0, np.inf)))
+    e = float(err[i]) if err.size == mu.size and math.isfinite(err[i]) else 0.0
+    res = o.residual if math.isfinite(o.residual) else 0.0
+    return max(e, res * max(1.0, float(abs(mu[i]))))
+
+
 def _where(fam, v, w, located, why, tol_v) -> str:
     """The located value in words: "at p = v ± w" when located to the requested tolerance, else
     the bracket and why it is wider."""
@@ -1166,7 +1182,7 @@ def _detect(fam, like, va, oa, vb, ob, tol, locate, locate_tol, *, step=None, la
         if kind != "fold" and locate and not jump:
             # the multipliers' own uncertainty moves the crossing too: u / |d(crit)/d(param)|
             # (the slope from the branch points), added to the bracket's width
-            u = max(_uncertainty(o1), _uncertainty(o2))
+            u = max(_crossing_error(o1, kind), _crossing_error(o2, kind))
             ca_, cb_ = _crossing_coordinate(oa, kind), _crossing_coordinate(ob, kind)
             slope = abs(cb_ - ca_) / abs(vb - va) if abs(vb - va) > 0 else 0.0
             if u > 0 and slope > 0 and math.isfinite(u / slope):
