@@ -310,8 +310,9 @@ class Branch:
 
     def table(self) -> pd.DataFrame:
         """One row per branch point: value, converged, residual, stability ("stable",
-        "unstable" or "neutral": :func:`orbit_stability`; column ``stable``), max |mu| and its
-        uncertainty, the multipliers (re, im columns by decreasing modulus), onsets per period,
+        "unstable" or "neutral": :func:`orbit_stability`; column ``stable``), max |mu|, the
+        largest |mu| that decides stability (a continuum's neutral memory multiplier left out:
+        ``max_abs_deciding``) and its uncertainty, the multipliers (re, im columns by decreasing modulus), onsets per period,
         smallest approach speed, continuum, and the orbit's first section point (one column per
         state)."""
         rows = []
@@ -319,6 +320,8 @@ class Branch:
             r = {"value": v, "period": o.period, "converged": o.converged, "residual": o.residual,
                  "stable": orbit_stability(o),
                  "max_abs_multiplier": o.max_abs_multiplier,
+                 "max_abs_deciding": (float(np.max(np.abs(_critical(o))))
+                                      if _critical(o).size else math.nan),
                  "multiplier_uncertainty": _uncertainty(o),
                  "onsets_per_period": o.onsets_per_period,
                  "min_approach_speed": o.min_approach_speed, "continuum": o.continuum}

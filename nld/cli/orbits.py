@@ -252,7 +252,7 @@ def cmd_continue(args) -> int:
         print(f"  {b.detail}")
     if not br.bifurcations:
         print("  no bifurcation on the branch")
-    cols = ["value", "stable", "max_abs_multiplier", "multiplier_uncertainty",
+    cols = ["value", "stable", "max_abs_deciding", "multiplier_uncertainty",
             "onsets_per_period", "min_approach_speed"]
     print(tab[cols].to_string(index=False, float_format=lambda v: f"{v:.6g}"))
     if out is not None:
