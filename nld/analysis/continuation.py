@@ -9,7 +9,10 @@ Kuznetsov 2004, ch. 10; Seydel 2010, ch. 4):
 * pseudo-arclength continuation over a range (Keller 1977): the unknowns are the shooting points
   and the parameter, the extra equation t . (V - V_pred) = 0 with t the branch's unit tangent (the
   null vector of [G_x, G_lambda], G_lambda by a forward difference), adaptive step (x1.5 after a
-  corrector of <= 3 Newton steps, /2 after a failure).
+  corrector of <= 3 Newton steps, /2 after a failure, retried before anything else), in BOTH
+  directions from the start orbit, landing exactly on the range's ends; every end of a branch
+  carries a reason (:data:`END_REASONS`, :class:`BranchEnd`) and the branch says "completed" only
+  when it covered the range (docs/continuation.md).
 
 Along the branch the Floquet multipliers (neutral memory multipliers of a permanent-contact orbit
 left out) are watched for the codimension-one bifurcations of a map (Kuznetsov 2004, ch. 4):
@@ -20,9 +23,15 @@ pair through |mu| = 1), and the discontinuity-induced bifurcations of impacting 
 on the orbit goes to 0 and the number of contacts per period changes) and, generally, the
 **appearance or loss of a contact** per period at a finite approach speed (``contact_change``: the
 branch jumps to another orbit; a compliant contact law makes such jumps possible). Period doubling, Neimark-Sacker and grazing are
-located by bisection in the parameter (a corrector solve per step) to ``locate_tol``; a fold by
-its bracketing branch points. :func:`period_doubled_orbit` starts the doubled branch at a located
-period doubling.
+located by bisection in the parameter (a corrector solve per step) to ``locate_tol``, the stated
+tolerance being the final bracket (a whole step where a Newton failed inside: then not "located")
+plus the crossing multiplier's uncertainty over its slope; a fold by bisection in the arclength,
+with the attractor the motion jumps to beyond it. Period doublings and Neimark-Sacker points are
+called super- or subcritical where decidable (:func:`bifurcation_criticality`: the doubled branch's
+side; an invariant circle's sqrt growth). :func:`period_doubled_orbit` starts the doubled branch at
+a located period doubling; :func:`follow_cascade` follows a cascade by branch switching (Seydel
+2010, sec. 7.4; COCO's hybrid po toolbox, Dankowicz & Schilder 2013) and gives the interval ratios
+(Feigenbaum's delta the smooth reference).
 
 Parameters: for a scene a scene key as ``nld --set`` takes it (``joints.B.clearance``,
 ``driver.speed``); the kernel is the same at every value (parameters are kernel arguments; a
@@ -45,8 +54,8 @@ from nld.analysis.orbits import (PeriodicOrbit, _Shooting, _finite, check_period
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
 
 __all__ = ["Family", "Bifurcation", "Branch", "BranchEnd", "Cascade", "continue_orbit",
-           "period_doubled_orbit", "follow_cascade", "orbit_stability", "KINDS", "END_REASONS",
-           "CRITICALITIES"]
+           "period_doubled_orbit", "follow_cascade", "bifurcation_criticality", "orbit_stability",
+           "KINDS", "END_REASONS", "CRITICALITIES", "FEIGENBAUM_DELTA"]
 
 ARCLENGTH_PARAM_UNIT = 0.02       # of the range: the parameter's weight in the arclength
 KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing", "contact_change")
