@@ -629,6 +629,12 @@ def continue_orbit(system, orbit: PeriodicOrbit, param, values=None, *, range=No
             bf.criticality, why = bifurcation_criticality(fam, like, bf, dstep)
             if why:
                 bf.detail += f"; {bf.criticality}: {why}"
+    for e in ends:
+        # an arclength direction that turned back at a fold: the fold's jump target in its end
+        folds = [bf for bf in bifs if bf.kind == "fold" and bf.jump]
+        if e.reason == "fold" and folds and "jump" not in e.detail:
+            f = max(folds, key=lambda bf: bf.value * e.direction)
+            e.detail += f"; the fold at {fam.label} = {f.value:.6g}: {f.jump}"
     settings["wall_s"] = time.perf_counter() - t_start
     msg = _message(fam, ends, vals)
     if crossed:
@@ -979,7 +985,7 @@ def _bisect(fam, like, va, oa, vb, ob, same_side, tol_v, tol, max_iter=40):
         else:
             vb, ob = vm, om
     width = abs(vb - va)
-    located = width <= tol_v * (1 + 1e-9)
+    located = bool(width <= tol_v * (1 + 1e-9))
     if not located and not why:
         why = f"the bisection stopped after {max_iter} halvings"
     return 0.5 * (va + vb), oa, ob, width, located, why
@@ -1045,7 +1051,7 @@ def _locate_fold(fam, like, va, oa, vb, ob, tol, locate_tol, lam_scale):
         why = why or "no parabola through the bracket"
     width = max(abs(vertex - lo[1]), abs(vertex - hi[1]))
     beyond = 1 if vertex >= 0.5 * (lo[1] + hi[1]) else -1
-    located = width <= locate_tol and not why
+    located = bool(width <= locate_tol and not why)
     if not located and not why:
         why = f"the bracket's values are {width:.2g} from the vertex after {len(pts) - 2} halvings"
     return vertex, lo[2], hi[2], width, located, why, beyond
