@@ -677,7 +677,7 @@ def _end_after_failure(fam, like, o_last, o_first, lam, direction, tol, detail,
         # failed value tells a fold (the branch turns back before it) from a failed Newton
         x = lam + direction * offset
         try:
-            vals, _, ends_p, _ = _arclength(fam, like, o_last, lam, lam, x, offset / 4, 40, tol,
+            vals, _, ends_p, _ = _arclength(fam, like, o_last, lam, lam, x, offset / 4, 12, tol,
                                             None, None)
         except (SolveError, InputError, SceneError, np.linalg.LinAlgError):
             vals, ends_p = [], []
@@ -1303,6 +1303,10 @@ NS_ITERATIONS = 6000         # map iterations on the unstable side of a Neimark-
 NS_OFFSET = 0.1              # of the step: the nearer distance there (growth rate ~ distance)
 
 
+DOUBLED_GUESSES = (1e-2, 3e-2, 1e-1, 3e-1)   # x* + eps v: eps in the scales
+DOUBLED_MAX_ITER = 10        # Newton steps per guess (an orbit that exists converges in a few)
+
+
 def _doubled_at(fam, like, o: PeriodicOrbit, value, tol):
     """The period-2p orbit at ``value`` near the p-orbit o (x* + eps v, v the eigenvector of
     the multiplier nearest -1, eps 1e-2 ... 0.3 of the scales), or None; the p-orbit itself (its
@@ -1313,10 +1317,10 @@ def _doubled_at(fam, like, o: PeriodicOrbit, value, tol):
     v = np.real(V[:, k])
     s = np.asarray(m.scales, dtype=float)
     v = v / np.max(np.abs(v / s))
-    for eps in (1e-2, 3e-2, 1e-1, 3e-1):
+    for eps in DOUBLED_GUESSES:
         try:
             o2 = periodic_orbit(m, 2 * o.period, o.points[0] + eps * v * s, z=o.z[0], tol=tol,
-                                check=True)
+                                check=True, max_iter=DOUBLED_MAX_ITER)
         except (SolveError, InputError):
             continue
         if not o2.converged:
