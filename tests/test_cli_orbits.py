@@ -26,8 +26,8 @@ def test_orbits_json_gives_the_documented_fields(capsys):
 def test_continue_writes_branch_and_bifurcation_tables(tmp_path, capsys):
     out = tmp_path / "cont"
     rc = main(["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu",
-               "--values", "0.1:0.09:3", "--out", str(out), "--plot", str(tmp_path / "b.png"),
-               "--quiet"])
+               "--values", "0.1:0.09:3", "--natural", "--out", str(out), "--plot",
+               str(tmp_path / "b.png"), "--quiet"])
     assert rc == 0
     tab = pd.read_parquet(out / "branch.parquet")
     assert list(tab["value"]) == pytest.approx([0.1, 0.095, 0.09])
@@ -44,8 +44,8 @@ def test_continue_writes_branch_and_bifurcation_tables(tmp_path, capsys):
     (["orbits", "slider_crank", "--max-period", "0"], "--max-period"),
     (["continue", "slider_crank", "--param", "joints.B.nonsense", "--values", "1:2:3"],
      "no such scene key"),
-    (["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu", "--values", "0.2:0.3:3"],
-     "do not contain the start"),
+    (["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu", "--values", "0.1:-0.1:3"],
+     "outside the parameter's domain"),
     (["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu", "--values", "0.1:0.1:3"],
      "--values"),
     (["continue", "slider_crank_olyaei", "--param", "joints.B.friction.mu", "--values", "0.1:0.05:3",

@@ -43,25 +43,33 @@ def add_parser(sub):
     sc = sub.add_parser(
         "continue", help="follow a periodic orbit in one parameter, bifurcations named",
         description="Continuation of a periodic orbit in one scene parameter: the orbit at the "
-                    "scene's value of KEY (after --set), followed over --values (natural "
-                    "continuation) or, with --arclength, by pseudo-arclength from the first to "
-                    "the last value. Multipliers along the branch; period doublings, folds, "
-                    "Neimark-Sacker and grazing (a contact appearing or lost) located. Writes "
+                    "first of --values (found after --transient revolutions there), followed by "
+                    "pseudo-arclength over the whole range of --values (default: adaptive step, "
+                    "through folds and contact changes, both directions from the start), or "
+                    "with --natural at exactly the values given. Multipliers along the branch; "
+                    "period doublings, folds, Neimark-Sacker and grazing (a contact appearing or "
+                    "lost) located; each end of the branch with its reason. Writes "
                     "DIR/branch.parquet and DIR/bifurcations.parquet (provenance in their JSON "
-                    "sidecars) with --out; draws the branch with --plot.")
+                    "sidecars) with --out; draws the branch with --plot. Every option is checked "
+                    "before the first integration (docs/continuation.md).")
     scene_args(sc)
     sc.add_argument("--param", required=True, metavar="KEY",
                     help="the scene key to vary, e.g. joints.B.clearance or driver.speed")
     sc.add_argument("--values", required=True, type=values_of("--values"), metavar="A:B:N",
-                    help="values of KEY: START:STOP:NUM (ends included) or V1,V2,... ; they must "
-                         "contain the scene's value")
+                    help="values of KEY: START:STOP:NUM (ends included) or V1,V2,... ; the start "
+                         "orbit is found at the first, the branch followed to the last (the "
+                         "scene's own value need not be among them)")
     sc.add_argument("--period", type=count_arg("--period", 1), default=1, metavar="P",
                     help="the orbit's period in revolutions (default 1)")
     sc.add_argument("--transient", type=count_arg("--transient", 0), default=DEFAULT_TRANSIENT,
                     metavar="REVS", help=f"revolutions to the start orbit's guess "
                                          f"(default {DEFAULT_TRANSIENT})")
-    sc.add_argument("--arclength", action="store_true",
-                    help="pseudo-arclength continuation (passes folds; adaptive step)")
+    how = sc.add_mutually_exclusive_group()
+    how.add_argument("--arclength", action="store_true",
+                     help="pseudo-arclength continuation (the default: passes folds; adaptive "
+                          "step, first step the mean spacing of --values)")
+    how.add_argument("--natural", action="store_true",
+                     help="natural continuation at exactly the values given (stops at a fold)")
     sc.add_argument("--rtol", type=rtol_arg, default=LYAPUNOV.rtol, metavar="R",
                     help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
     sc.add_argument("--out", metavar="DIR", help="write branch.parquet and bifurcations.parquet")
@@ -152,49 +160,76 @@ def _search_progress(args):
     return prog
 
 
+def _check_out_dir(path, option: str = "--out"):
+    """The output directory, checked before any work: not a file, creatable, writable."""
+    import os
+    from pathlib import Path
+    p = Path(path).expanduser()
+    if p.exists() and not p.is_dir():
+        raise InputError(f"{option} = {str(path)!r}: is a file; give a directory (branch.parquet "
+                         f"and bifurcations.parquet are written into it)")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        why = "a file is in the way" if isinstance(e, (FileExistsError, NotADirectoryError)) \
+            else (e.strerror or str(e))
+        raise InputError(f"{option} = {str(path)!r}: cannot create the directory ({why})") from None
+    if not os.access(p, os.W_OK):
+        raise InputError(f"{option} = {str(path)!r}: the directory is not writable")
+    return p
+
+
 def cmd_continue(args) -> int:
-    from nld.analysis.continuation import continue_orbit
+    from nld.analysis.continuation import Family, check_values, continue_orbit
     from nld.analysis.orbits import periodic_orbit
     from nld.output.io import check_figure_path, save_table
     from nld.run.simulate import provenance
     from nld.systems.core import SceneSystem
-    from pathlib import Path
     values = np.array(args.values, dtype=float)
+    # every option before the first integration: the figure and output paths, the key, every value
+    # (the parameter's domain) and the scene's structure at the values' ends
     plot = check_figure_path(args.plot) if args.plot else None
-    system = SceneSystem(args.scene, args.overrides)
-    if system.period is None:
-        raise InputError(f"scene {system.name!r} has no crank speed: orbits are found on the "
+    out = _check_out_dir(args.out) if args.out else None
+    base = SceneSystem(args.scene, args.overrides)
+    if base.period is None:
+        raise InputError(f"scene {base.name!r} has no crank speed: orbits are found on the "
                          "stroboscopic map of a driven crank")
-    from nld.analysis.continuation import Family
-    fam = Family(system, args.param)             # checks the key before any integration
-    from nld.analysis.continuation import check_values
-    check_values(values, fam.value0, args.param)
+    fam = Family(base, args.param)               # checks the key
+    check_values(values, values[0], "--values")
+    for v in values:
+        fam.check(v, "--values:")
+    system = fam.at(values[0])                   # the start: the first value asked for
+    fam.at(values[-1])                           # the same structure at the other end
     if plot is not None and args.observable is not None:
         _observable_check(system, args.observable)
+    natural = bool(args.natural)
     o = periodic_orbit(system, args.period, transient=args.transient, rtol=args.rtol)
     if not o.converged:
-        raise InputError(f"no period-{args.period} orbit at {args.param} = {fam.value0:g} to start "
-                         f"from ({o.message}); try another --transient or --period")
+        raise InputError(f"no period-{args.period} orbit at {args.param} = {values[0]:g} to start "
+                         f"from ({o.message}); try another --transient or --period, or start "
+                         f"--values elsewhere")
     done = []
     prov = provenance(system.scene, system.kernel, rtol=args.rtol, param=args.param,
                       values=values.tolist(), period=args.period, transient_revs=args.transient,
-                      method="arclength" if args.arclength else "natural",
+                      method="natural" if natural else "arclength", start_value=float(values[0]),
                       command=getattr(args, "command_line", None))
     prov.pop("scene_parameters", None)
-    out = Path(args.out) if args.out else None
     from nld.progress import progress_bar
+    span = abs(values[-1] - values[0])
+    step = span / (len(values) - 1)
+    max_points = max(200, 4 * len(values))
     with progress_bar(total=len(values), desc="continuation", unit="point",
                       enabled=args.progress) as pb:
         def on_point(v, orb):
             done.append((v, orb))
             pb.update(1)
         try:
-            if args.arclength:
-                br = continue_orbit(system, o, args.param, range=(values[0], values[-1]),
-                                    step=float(np.min(np.abs(np.diff(values)))),
-                                    max_points=4 * len(values), on_point=on_point)
+            if natural:
+                br = continue_orbit(system, o, args.param, values, method="natural",
+                                    on_point=on_point)
             else:
-                br = continue_orbit(system, o, args.param, values, on_point=on_point)
+                br = continue_orbit(system, o, args.param, range=(values[0], values[-1]),
+                                    step=step, max_points=max_points, on_point=on_point)
         except KeyboardInterrupt:
             kept = f"{len(done)} branch points computed"
             if out is not None and done:
@@ -206,13 +241,19 @@ def cmd_continue(args) -> int:
             raise Interrupted("interrupted", kept=kept) from None
     tab = br.table()
     bifs = br.bifurcation_table()
+    prov["ends"] = [e.to_dict() for e in br.ends]
+    prov["completed"] = br.completed
     print(f"{system.name}: period-{o.period} branch in {args.param}, {len(br.values)} points "
-          f"({br.values[0]:g} ... {br.values[-1]:g}); {br.message}")
+          f"({min(br.values):g} ... {max(br.values):g}); {br.message}")
+    for e in br.ends:
+        way = "larger" if e.direction > 0 else "smaller"
+        print(f"  end towards {way} values: {e.reason} at {e.value:g} ({e.detail})")
     for b in br.bifurcations:
         print(f"  {b.detail}")
     if not br.bifurcations:
         print("  no bifurcation on the branch")
-    cols = ["value", "stable", "max_abs_multiplier", "onsets_per_period", "min_approach_speed"]
+    cols = ["value", "stable", "max_abs_deciding", "multiplier_uncertainty",
+            "onsets_per_period", "min_approach_speed"]
     print(tab[cols].to_string(index=False, float_format=lambda v: f"{v:.6g}"))
     if out is not None:
         p1 = save_table(tab, out / "branch.parquet", prov)
