@@ -138,7 +138,7 @@ def free_case(st: dict) -> dict:
     tq = steady["driver.torque"].to_numpy(float)
     return dict(section=sec, onsets_per_rev=per_rev, T=T, clearance=scene.joints["B"].clearance,
                 drive_rms=float(np.sqrt(np.mean(tq ** 2))), drive_peak=float(np.max(np.abs(tq))),
-                wall_s=wall, steps=int(r.stats.get("accepted", 0)))
+                drive_samples=int(tq.size), wall_s=wall, steps=int(r.stats.get("accepted", 0)))
 
 
 # ------------------------------------------------------------------------------------- tables
@@ -183,7 +183,8 @@ def torque_table(ctl: dict, free: dict) -> pd.DataFrame:
         rows.append({"what": name, "rms": float(np.sqrt(np.mean(x ** 2))) if x.size else math.nan,
                      "peak": float(np.max(np.abs(x))) if x.size else math.nan, "samples": int(x.size)})
     rows.append({"what": "crank drive torque, free mechanism (steady revolutions)",
-                 "rms": free["drive_rms"], "peak": free["drive_peak"], "samples": 0})
+                 "rms": free["drive_rms"], "peak": free["drive_peak"],
+                 "samples": int(free["drive_samples"])})
     return pd.DataFrame(rows)
 
 
@@ -199,6 +200,8 @@ def summary_table(ctl: dict, free: dict) -> pd.DataFrame:
          s.get("uncertainty_uncontrolled"), "per revolution"),
         ("lambda1 controlled; contact memory " + str(s.get("lyapunov_controlled_memory", "")),
          o["lambda1_controlled"], s.get("uncertainty_controlled"), "per revolution"),
+        ("effort decay rate after capture (second estimate of lambda1 controlled)",
+         s.get("effort_decay_per_revolution"), None, "per revolution"),
         ("contact onsets per revolution, free (mean, SE over the section's revolutions)",
          float(on.mean()) if on.size else math.nan,
          float(on.std(ddof=1) / math.sqrt(on.size)) if on.size > 1 else math.nan, "1/rev"),
@@ -234,12 +237,43 @@ def summary_table(ctl: dict, free: dict) -> pd.DataFrame:
     return df
 
 
+STABLE_RULE = ("stable: lambda1 + uncertainty < 0; unstable: lambda1 - uncertainty > 0; "
+               "undecided: the interval contains 0 (the uncertainty: the standard error of batch "
+               "means combined with the difference of the two halves' means, "
+               "nld.analysis.control.delayed_lyapunov)")
+
+
+def verdict(lam: float, unc: float) -> str:
+    """'stable', 'unstable' or 'undecided' by lambda1 and its uncertainty (STABLE_RULE); the
+    ``stable`` column of nld control's stability domain is verdict == 'stable'."""
+    if not math.isfinite(lam):
+        return "failed"
+    u = unc if math.isfinite(unc) else 0.0
+    return "stable" if lam + u < 0 else "unstable" if lam - u > 0 else "undecided"
+
+
 def domain_table(ctl: dict) -> pd.DataFrame:
     d = ctl["out"]["stability_domain"]
-    return pd.DataFrame({"K": d["gains"], "R": d["memory"],
-                         "lambda1": [np.nan if x is None else x for x in d["lambda1"]],
-                         "uncertainty": [np.nan if x is None else x for x in d["uncertainty"]],
-                         "stable": d["stable"]})
+    lam = [np.nan if x is None else x for x in d["lambda1"]]
+    unc = [np.nan if x is None else x for x in d["uncertainty"]]
+    return pd.DataFrame({"K": d["gains"], "R": d["memory"], "lambda1": lam, "uncertainty": unc,
+                         "stable": d["stable"],
+                         "verdict": [verdict(a, b) for a, b in zip(lam, unc)]})
+
+
+def gain_ranges(dom: pd.DataFrame, which: str) -> str:
+    """The gains of verdict ``which`` as runs of consecutive rows of the domain table, e.g.
+    '0.7-1.4, 2-3' (a set that is not one range is not printed as its min...max)."""
+    runs, cur = [], []
+    for k, v in zip(dom["K"], dom["verdict"]):
+        if v == which:
+            cur.append(float(k))
+        elif cur:
+            runs.append(cur)
+            cur = []
+    if cur:
+        runs.append(cur)
+    return ", ".join(f"{r[0]:g}" if len(r) == 1 else f"{r[0]:g}-{r[-1]:g}" for r in runs)
 
 
 def sections_table(ctl: dict, free: dict, revs: pd.DataFrame) -> pd.DataFrame:
@@ -268,7 +302,8 @@ def findings(ctl, free, tq, dom) -> list[str]:
     cap = o["captured_at_revolution"]
     co = s.get("controlled_orbit") or {}
     on = np.asarray(free["onsets_per_rev"], float)
-    st = dom[dom["stable"].astype(bool)]
+    st = dom[dom["verdict"] == "stable"]
+    n_un, n_und = int((dom["verdict"] == "unstable").sum()), int((dom["verdict"] == "undecided").sum())
     paras = [
         f"Uncontrolled: lambda1 = {_fmt(o['lambda1_uncontrolled'])} ± "
         f"{_fmt(s.get('uncertainty_uncontrolled'), '.2g')} per revolution (two trajectories, "
@@ -279,7 +314,9 @@ def findings(ctl, free, tq, dom) -> list[str]:
         f"K = {s['gain']:g} N m s/rad, R = {s['memory']:g}, tau = {s['delay_revolutions']:g} crank "
         f"period): lambda1 = {_fmt(o['lambda1_controlled'])} ± "
         f"{_fmt(s.get('uncertainty_controlled'), '.2g')} per revolution "
-        f"({s.get('lyapunov_controlled_memory')}); effort rms {_fmt(o['effort_rms_initial'])} -> "
+        f"({s.get('lyapunov_controlled_memory')}); the effort decays after the capture at "
+        f"{_fmt(s.get('effort_decay_per_revolution'))} per revolution, a second estimate of the "
+        f"same exponent; effort rms {_fmt(o['effort_rms_initial'])} -> "
         f"{_fmt(o['effort_rms_final'])} N m; "
         + (f"captured at revolution {cap:g} of {s['revs']}" if cap is not None else
            f"not captured within {s['revs']} revolutions")
@@ -291,9 +328,15 @@ def findings(ctl, free, tq, dom) -> list[str]:
         + (co.get("odd_number_limitation") or {}).get("message", "") if co else
         "No orbit was found from the controlled motion."),
         f"Stability domain (R = {s['memory']:g}, {len(dom)} gains {dom['K'].min():g}..."
-        f"{dom['K'].max():g}): lambda1 + SE < 0 at {len(st)} gains"
-        + (f" (K = {st['K'].min():g}...{st['K'].max():g}; deepest {st['lambda1'].min():.3g} at "
-           f"K = {st.loc[st['lambda1'].idxmin(), 'K']:g})" if len(st) else "") + ".",
+        f"{dom['K'].max():g}): stable (lambda1 + uncertainty < 0) at {len(st)} gains"
+        + (f" (K = {gain_ranges(dom, 'stable')}; deepest {st['lambda1'].min():.3g} at "
+           f"K = {st.loc[st['lambda1'].idxmin(), 'K']:g})" if len(st) else "")
+        + f", unstable (lambda1 - uncertainty > 0) at {n_un}"
+        + (f" (K = {gain_ranges(dom, 'unstable')})" if n_un else "")
+        + f", undecided (the interval contains 0) at {n_und}"
+        + (f" (K = {gain_ranges(dom, 'undecided')})" if n_und else "") + ". The uncertainty "
+        "is the standard error of batch means combined with the difference of the two halves' "
+        "means (a slow drift of the running estimate counts).",
         f"Torque: during the capture the control torque is {_fmt(tq['rms'].iloc[0])} N m rms "
         f"({_fmt(tq['peak'].iloc[0])} N m peak), after it {_fmt(tq['rms'].iloc[1])} N m rms "
         f"({_fmt(tq['peak'].iloc[1])} peak); the crank's drive torque of the free mechanism is "
@@ -433,7 +476,15 @@ def report(study, ctl, free, revs, secs, tq, dom, summ) -> None:
             fig, ax = rep.subplots(1, 1, title="Stability domain: lambda1 of the closed loop against the gain")
             ok = np.isfinite(dom["lambda1"])
             ax.errorbar(dom["K"][ok], dom["lambda1"][ok], yerr=dom["uncertainty"][ok].fillna(0),
-                        fmt="o-", ms=3, capsize=2, label=f"EDFC, R = {s['memory']:g}")
+                        fmt="-", color="tab:blue", lw=0.8, capsize=2,
+                        label=f"EDFC, R = {s['memory']:g}")
+            # the table's verdict on each point (STABLE_RULE): filled / open / cross
+            for v, mk, fc in (("stable", "o", "tab:blue"), ("undecided", "o", "white"),
+                              ("unstable", "x", "tab:blue")):
+                sel = ok & (dom["verdict"] == v)
+                if sel.any():
+                    ax.plot(dom["K"][sel], dom["lambda1"][sel], mk, ms=4, mec="tab:blue",
+                            mfc=fc, ls="none", label=v)
             ax.axhline(lam_f, color="tab:red", lw=1, label="free mechanism")
             ax.axhspan(lam_f - se_f, lam_f + se_f, color="tab:red", alpha=0.15)
             ax.axhline(0, color="k", lw=0.6)
@@ -443,14 +494,15 @@ def report(study, ctl, free, revs, secs, tq, dom, summ) -> None:
             ax.legend(fontsize=7)
         sd = o["stability_domain"]
         rep.figure(fig, caption=(
-            f"lambda1 ± SE (batch means) at each gain, from the end of the controlled run: "
+            f"lambda1 ± its uncertainty at each gain (filled: stable, open: undecided, cross: "
+            f"unstable, as in the table; {STABLE_RULE}), from the end of the controlled run: "
             f"{sd['transient_revs']} revolutions under that gain, then lambda1 over "
             f"{sd['span_revs']} (two trajectories, renormalised every quarter revolution; "
             f"conditional on the contact memory where the motion stays in permanent contact). Red "
             f"line and band: the free mechanism's lambda1 ± SE."))
         rep.table("Stability domain", dom, {"K": "N m s/rad", "lambda1": "1/rev",
                                              "uncertainty": "1/rev"},
-                  notes=["stable: lambda1 + uncertainty < 0."])
+                  notes=[STABLE_RULE + "."])
         rep.table("What it takes in torque", tq, {"rms": "N m", "peak": "N m"}, notes=[
             "Control torque u on the rod from the controlled run's samples (50 per revolution: "
             "the peaks of short impacts are not resolved); 'during capture' from the start of "

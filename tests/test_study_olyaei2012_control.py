@@ -29,7 +29,7 @@ def fake_free(st):
     sec = pd.DataFrame({"rev": np.arange(10, 16), "t": np.arange(10, 16) * T,
                         "B.ex": np.full(6, 0.5 * C), "B.ey": np.full(6, -0.5 * C)})
     return dict(section=sec, onsets_per_rev=np.array([4, 3, 5, 4, 4]), T=T, clearance=C,
-                drive_rms=90.0, drive_peak=700.0, wall_s=1.0, steps=100)
+                drive_rms=90.0, drive_peak=700.0, drive_samples=500, wall_s=1.0, steps=100)
 
 
 def fake_controlled(st, say):
@@ -99,10 +99,12 @@ def test_the_numbers_follow_from_the_stand_ins(smoke):
     dom, _ = load_table(out / "olyaei2012_control_domain.csv")
     assert list(dom["K"]) == [0.5, 1.0] and list(dom["lambda1"]) == [1.0, -0.1]
     assert list(dom["stable"]) == [False, True]
+    assert list(dom["verdict"]) == ["unstable", "stable"]
     tq, _ = load_table(out / "olyaei2012_control_torque.csv")
     assert tq["rms"].tolist() == pytest.approx([2.0, 1e-3, 90.0])
     assert tq["peak"].tolist() == pytest.approx([2.0, 1e-3, 700.0])
-    assert tq["samples"].tolist() == [CAP * SPR + 1, (NREV - CAP) * SPR, 0]
+    # the drive torque's row counts its samples (issue 42: it said "samples 0")
+    assert tq["samples"].tolist() == [CAP * SPR + 1, (NREV - CAP) * SPR, 500]
     revs, _ = load_table(out / "olyaei2012_control_revolutions.csv")
     assert len(revs) == NREV
     # revolution k holds the samples (k, k + 1]: 2 N m up to the capture's sample, 1e-3 after
@@ -145,9 +147,14 @@ def test_quick_mode_through_the_command_line(tmp_path, monkeypatch):
     summ, prov = load_table(out / "olyaei2012_control_summary.csv")
     assert prov["mode"] == "quick" and prov["control_settings"]["method"] == "edfc"
     v = dict(zip(summ["quantity"], summ["value"]))
+    u = dict(zip(summ["quantity"], summ["uncertainty"]))
     free = next(x for q, x in v.items() if q.startswith("lambda1 free"))
-    ctl = next(x for q, x in v.items() if q.startswith("lambda1 controlled"))
-    assert free > 1.0 and ctl < free and ctl < 0.5
+    q_ctl = next(q for q in v if q.startswith("lambda1 controlled"))
+    ctl = v[q_ctl]
+    assert free > 1.0 and ctl + u[q_ctl] < 0
+    # issue 38: against an independent estimate, the effort's decay after capture
+    decay = next(x for q, x in v.items() if q.startswith("effort decay rate"))
+    assert abs(ctl - decay) <= u[q_ctl], (ctl, u[q_ctl], decay)
     first = v["effort rms, first controlled revolution"]
     last = v["effort rms, last controlled revolution"]
     assert last < 0.05 * first
@@ -159,3 +166,19 @@ def test_quick_mode_through_the_command_line(tmp_path, monkeypatch):
         _, p = load_table(out / f"olyaei2012_control_{suffix}.csv")
         assert p["git_hash"] and p["settings"]["gains"] == [0.3, 1.0, 2.0]
     assert (out / "olyaei2012_control.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_the_stability_verdict_is_one_rule_for_table_and_figure():
+    """Issue 42: lambda1 about -0.06 with an uncertainty of 0.067 was listed "stable False" and left
+    out of the stable range without a word; the verdict says which of stable / unstable /
+    undecided, by one rule (the table's stable column is verdict == stable)."""
+    study = load_study("olyaei2012_control.py")
+    assert study.verdict(-0.06, 0.067) == "undecided"
+    assert study.verdict(-0.06, 0.017) == "stable" and study.verdict(0.5, 0.2) == "unstable"
+    assert study.verdict(float("nan"), 0.1) == "failed"
+    assert "lambda1 + uncertainty < 0" in study.STABLE_RULE
+    dom = pd.DataFrame({"K": [0.5, 0.7, 1.0, 1.5, 2.0, 3.0],
+                        "verdict": ["unstable", "stable", "stable", "undecided", "stable",
+                                    "stable"]})
+    assert study.gain_ranges(dom, "stable") == "0.7-1, 2-3"
+    assert study.gain_ranges(dom, "undecided") == "1.5"

@@ -26,7 +26,9 @@ interval the distance is measured over the whole segment (RMS of the scaled diff
 ``SEGMENT_SAMPLES`` + 1 points of [t - tau_max, t]), and the copy's *whole history segment* (state
 and channel pieces) is pulled back to ref + (d0 / d)(copy - ref), exactly (nld.integrators.delay.
 combine_histories: both are piecewise quartics). lambda1 = mean of ln(d / d0) per unit time;
-its uncertainty the standard error of batch means (4 or more batches).
+the first intervals (a quarter of the span) are not counted (alignment); its uncertainty the
+standard error of batch means (4 or more batches) combined with the difference of the two
+halves' means.
 
 **OGY** (Ott, Grebogi & Yorke 1990, PRL 64:1196) on a map x_{n+1} = P(x_n, p): a DiscreteMap (the
 Hénon map) or a flow's StroboscopicMap (one forcing period; a scene: one crank revolution). The
@@ -66,7 +68,7 @@ from nld.integrators.delay import (PARAM, STATE, DelayLaw, History, combine_hist
 
 __all__ = ["DelayedFeedback", "delayed_feedback", "pyragas", "edfc", "DelayedRun",
            "run_delayed", "DelayLyapunov", "delayed_lyapunov", "ControlResult",
-           "control_delayed", "DomainScan", "stability_domain", "OddNumberVerdict",
+           "control_delayed", "effort_decay_rate", "DomainScan", "stability_domain", "OddNumberVerdict",
            "odd_number_limitation", "OGYResult", "ogy", "orbit_states", "distance_to_orbit",
            "rossler",
            "RTOL", "D0", "SEGMENT_SAMPLES", "CAPTURE_FRACTION"]
@@ -87,6 +89,13 @@ def _finite(name: str, value, allowed: str) -> float:
     if not math.isfinite(v):
         raise InputError(f"{name} = {value!r}: {allowed}")
     return v
+
+
+def _count(name: str, value, minimum: int, what: str) -> int:
+    """A whole number >= minimum (InputError naming ``name``, the value and what is allowed)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InputError(f"{name} = {value!r}: must be a whole number >= {minimum} ({what})")
+    return int(value)
 
 
 def _state_index(system, value, field_name: str) -> tuple[int, str]:
@@ -255,6 +264,9 @@ def run_delayed(system, fb: DelayedFeedback, duration: float, *, y0=None, z0=Non
     dur = _finite("duration", duration, "must be a positive time")
     if dur <= 0:
         raise InputError(f"duration = {duration!r}: must be a positive time")
+    samples_per_delay = _count("samples_per_delay", samples_per_delay, 1,
+                               "output samples per delay tau")
+    check_delay_size(system, fb, dur, samples_per_delay)
     t0 = float(system.t0 if t0 is None else t0)
     y = np.array(system.y0 if y0 is None else y0, dtype=float)
     z = np.array(system.z0 if z0 is None else z0, dtype=float)
@@ -298,6 +310,38 @@ def run_delayed(system, fb: DelayedFeedback, duration: float, *, y0=None, z0=Non
                        "samples_per_delay": int(samples_per_delay)})
 
 
+def delay_run_size(system, delay: float, duration: float, samples_per_delay: int) -> tuple:
+    """(bytes, steps, shortest_delay) of a delayed run of ``duration`` with delay ``delay``
+    (time units): the samples' bytes (one row per tau / samples_per_delay: the state, u, v and
+    t, held twice while the pieces are joined), the fewest steps (the step is capped at the
+    delay, nld.integrators.delay) and the shortest delay whose run fits both MAX_OUTPUT_BYTES
+    and MAX_STEPS."""
+    from nld.run.simulate import MAX_OUTPUT_BYTES
+    row = 2 * 8 * (int(system.n) + 3)
+    rows = float(duration) * int(samples_per_delay) / float(delay) + 1.0
+    steps = float(duration) / float(delay)
+    shortest = max(float(duration) * int(samples_per_delay) * row / MAX_OUTPUT_BYTES,
+                   float(duration) / MAX_STEPS)
+    return rows * row, steps, shortest
+
+
+def check_delay_size(system, fb: DelayedFeedback, duration: float, samples_per_delay: int,
+                      field: str = "delay"):
+    """InputError naming the delay when a run of ``duration`` under ``fb`` would not fit the
+    output limit or MAX_STEPS (checked before any work: a delay of 1e-9 s on a 3.7 s run asked
+    for 1.9e11 samples and grew to 24 GB before the system killed it)."""
+    from nld.run.simulate import MAX_OUTPUT_BYTES
+    need, steps, shortest = delay_run_size(system, fb.delay, duration, samples_per_delay)
+    if need > MAX_OUTPUT_BYTES or steps > MAX_STEPS:
+        why = (f"{need / 2**30:.3g} GiB of samples at {samples_per_delay} per delay (limit "
+               f"{MAX_OUTPUT_BYTES / 2**30:g} GiB)" if need > MAX_OUTPUT_BYTES else
+               f"at least {steps:.3g} steps, the step being capped at the delay (limit "
+               f"{MAX_STEPS:.3g})")
+        raise InputError(f"{field} = {fb.delay!r}: a delay that short makes the {duration:.6g} "
+                         f"{getattr(system, 'time_unit', 's')} run need {why}; the shortest "
+                         f"delay that fits is {shortest:.3g} {getattr(system, 'time_unit', 's')}")
+
+
 def _check_run(run: DelayedRun, what: str):
     if run.status != 0:
         raise SolveError(f"{what}: {run.message}")
@@ -307,7 +351,8 @@ def _check_run(run: DelayedRun, what: str):
 @dataclass
 class DelayLyapunov:
     """lambda1 of the delayed closed loop (per time unit; ``per_delay`` = lambda1 * tau) with
-    its uncertainty (standard error of batch means), the renormalisation intervals used and
+    its uncertainty (standard error of batch means with the halves' drift), the renormalisation
+    intervals counted (n_intervals; ``settings["align"]`` more were run first) and
     the settings."""
     lambda1: float
     uncertainty: float
@@ -354,12 +399,28 @@ def _batch_se(logs: np.ndarray, dt: float) -> float:
     return float(np.std(means, ddof=1) / math.sqrt(nb))
 
 
+def _uncertainty(logs: np.ndarray, dt: float) -> float:
+    """The uncertainty of lambda1 = mean(logs) / dt: the standard error of batch means combined
+    (in quadrature) with the difference between the means of the two halves of the span. The
+    batch means see the scatter but not a drift: on a slowly converging estimate (a stable
+    closed loop whose perturbation is still turning into its slowest mode, slow beating of a
+    complex pair, a reference still settling) the two halves differ and the batches do not; the
+    bias of the whole span's mean is of the order of that difference (docs/control.md, "The
+    evidence")."""
+    se = _batch_se(logs, dt)
+    h = logs.size // 2
+    if not math.isfinite(se) or h < 2:
+        return se
+    drift = abs(float(np.mean(logs[:h]) - np.mean(logs[h:]))) / dt
+    return float(math.hypot(se, drift))
+
+
 def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=None,
                      t0: float | None = None, history=None, t_break0: float | None = None,
                      gain: float | None = None, rtol: float = RTOL, d0: float = D0,
                      interval: float | None = None, segment_samples: int = SEGMENT_SAMPLES,
                      direction=None, transverse: bool | None = None,
-                     align: int = 2, hold_memory: bool = False) -> DelayLyapunov:
+                     align: int | None = None, hold_memory: bool = False) -> DelayLyapunov:
     """lambda1 of the closed loop over ``span`` (time units) by two trajectories with whole-
     segment renormalisation (module docstring), from (t0, y0, z0, history) (a run's end: pass
     ``run.t[-1], run.y, run.z, run.history, run.t_break0``). interval: renormalisation interval
@@ -370,7 +431,13 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     renormalisation, so that the exponent is the largest *non-trivial* one: on a periodic orbit
     of an autonomous flow (or autonomous delay equation) the trivial one is exactly 0, and a
     captured orbit shows as lambda1 = 0 without this. align: intervals run first and not
-    counted (the perturbation turning into the most unstable direction). hold_memory: give the
+    counted (the perturbation turning into the most unstable direction; default None: a quarter
+    of the counted ones, at least 2: on a stable closed loop the slowest mode's rate is close to
+    the next ones', and the early intervals, where the perturbation still decays in the fast
+    modes, biased lambda1 of the captured slider_crank_olyaei orbit to -0.128 per revolution
+    against -0.058 from the effort's decay, docs/control.md). The uncertainty is the standard
+    error of batch means combined with the difference of the two halves' means (a drift the
+    batches do not see). hold_memory: give the
     copy the reference's contact memory at every renormalisation (where both are in contact):
     lambda1 *conditional on the memory*, the convention of lyapunov_tangent in permanent contact,
     where the memory is never reset and its direction is neutral (multiplier 1 exactly:
@@ -383,6 +450,19 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     if n_int < 8:
         raise InputError(f"span = {span!r}: need at least 8 renormalisation intervals of "
                          f"{interval:g}")
+    if align is None:
+        align = max(2, n_int // 4)
+    elif isinstance(align, bool) or not isinstance(align, (int, np.integer)) or align < 0:
+        raise InputError(f"align = {align!r}: a whole number of renormalisation intervals >= 0 "
+                         f"(None: a quarter of the span's)")
+    steps = 2.0 * (n_int + int(align)) * interval / tau
+    if steps > MAX_STEPS:
+        raise InputError(f"delay = {tau!r}: a delay that short makes lambda1 over "
+                         f"{(n_int + int(align)) * interval:.6g} {getattr(system, 'time_unit', 's')}"
+                         f" need at least {steps:.3g} steps of its two trajectories, the step "
+                         f"being capped at the delay (limit {MAX_STEPS:.3g}); the shortest delay "
+                         f"that fits is {steps * tau / MAX_STEPS:.3g} "
+                         f"{getattr(system, 'time_unit', 's')}")
     t = float(system.t0 if t0 is None else t0)
     y = np.array(system.y0 if y0 is None else y0, dtype=float)
     z = np.array(system.z0 if z0 is None else z0, dtype=float)
@@ -439,7 +519,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
         h_r, h_o = r.h_last, o.h_last
     logs = logs[int(align):]
     lam = float(np.mean(logs) / interval)
-    se = _batch_se(logs, interval)
+    se = _uncertainty(logs, interval)
     return DelayLyapunov(lam, se, lam * tau, n_int, logs, "ok",
                          f"lambda1 = {lam:.4g} +- {se:.2g} per time unit over {n_int} intervals",
                          {"span": n_int * interval, "interval": interval, "d0": d0, "rtol": rtol,
@@ -454,16 +534,19 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
 class ControlResult:
     """Evidence of delayed-feedback control (the fields of ``nld control --json`` that apply):
 
-    lambda1_uncontrolled / lambda1_controlled (per time unit) with lambda1_uncertainty (the
-    larger standard error of the two; each one's in uncertainty_uncontrolled /
-    uncertainty_controlled); effort_rms_initial / effort_rms_final: rms of u over the
+    lambda1_uncontrolled / lambda1_controlled (per time unit), each with its own uncertainty
+    (``lambda1_uncontrolled_uncertainty`` / ``lambda1_controlled_uncertainty``, the same numbers
+    as the fields uncertainty_uncontrolled / uncertainty_controlled; lambda1_uncertainty,
+    deprecated, is the larger of the two); effort_rms_initial / effort_rms_final: rms of u over the
     first and the last delay period of the controlled run (unit of u); captured_at: the delay
     periods after which every period's effort rms stays below CAPTURE_FRACTION of the first's
     (None: never); orbit_distance: the largest scaled distance of the last period's states to
     the target orbit's curve (None without a target; else ``periodicity`` is the largest scaled
     |y(t) - y(t - tau)| over the last period); onsets_per_period: upward crossings of the
     events per delay period in the last quarter (None without events); run: the controlled
-    :class:`DelayedRun`."""
+    :class:`DelayedRun`; effort_decay_rate: :func:`effort_decay_rate` of the effort per period
+    after capture (per time unit; NaN when not captured long enough), a second estimate of
+    lambda1_controlled."""
     lambda1_uncontrolled: float
     lambda1_controlled: float
     lambda1_uncertainty: float
@@ -480,12 +563,22 @@ class ControlResult:
     effort_per_period: np.ndarray = field(repr=False, default=None)
     uncertainty_uncontrolled: float = math.nan
     uncertainty_controlled: float = math.nan
+    effort_decay_rate: float = math.nan
+
+    @property
+    def lambda1_controlled_uncertainty(self) -> float:
+        return self.uncertainty_controlled
+
+    @property
+    def lambda1_uncontrolled_uncertainty(self) -> float:
+        return self.uncertainty_uncontrolled
 
     def to_dict(self) -> dict:
         keys = ("lambda1_uncontrolled", "lambda1_controlled", "lambda1_uncertainty",
+                "lambda1_controlled_uncertainty", "lambda1_uncontrolled_uncertainty",
                 "effort_rms_initial", "effort_rms_final", "captured_at", "orbit_distance",
                 "periodicity", "onsets_per_period", "uncertainty_uncontrolled",
-                "uncertainty_controlled", "status", "message", "settings")
+                "uncertainty_controlled", "effort_decay_rate", "status", "message", "settings")
         return {k: getattr(self, k) for k in keys}
 
 
@@ -624,6 +717,7 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         while k > 0 and below[k - 1]:
             k -= 1
         captured = int(k)
+    decay = effort_decay_rate(eff, captured, tau)
     last = run.Y[-spd - 1:]
     prev = run.Y[-2 * spd - 1: -spd]
     periodicity = float(np.max(np.abs(_wrap_angles(system, last - prev) / system.scales))) \
@@ -661,10 +755,29 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
                 "lyapunov_controlled_memory": "held (conditional on the contact memory: "
                 "permanent contact)" if hold else "follows the state",
                 "samples_per_delay": spd, "capture_fraction": capture_fraction,
-                "segment_samples": SEGMENT_SAMPLES}
+                "segment_samples": SEGMENT_SAMPLES,
+                "lyapunov_align_intervals": lam_c.settings.get("align")}
     return ControlResult(lam_u.lambda1, lam_c.lambda1, float(unc), e0, e1, captured, dist,
                          periodicity, onsets, status, msg, settings, run, eff,
-                         lam_u.uncertainty, lam_c.uncertainty)
+                         lam_u.uncertainty, lam_c.uncertainty, decay)
+
+
+def effort_decay_rate(effort_per_period, captured_at, tau: float, min_periods: int = 8) -> float:
+    """The decay rate of the control effort after capture (per time unit): the least-squares
+    slope of ln(rms of u per delay period) over the later half of the periods after
+    ``captured_at`` (at least ``min_periods`` of them; NaN otherwise), divided by tau. On a
+    captured orbit u = K (v - s) is linear in the deviation from the orbit, which decays in the
+    closed loop's slowest mode: the rate is lambda1 of the closed loop, a second estimate
+    independent of the two-trajectory one (docs/control.md, "The evidence")."""
+    e = np.asarray(effort_per_period, dtype=float)
+    if captured_at is None:
+        return math.nan
+    k0 = max(int(captured_at), (int(captured_at) + e.size) // 2)
+    seg = e[k0:]
+    if seg.size < int(min_periods) or not np.all(seg > 0) or not np.all(np.isfinite(seg)):
+        return math.nan
+    x = np.arange(seg.size, dtype=float)
+    return float(np.polyfit(x, np.log(seg), 1)[0]) / float(tau)
 
 
 # ---------------------------------------------------------------- stability domain
@@ -792,7 +905,9 @@ class OGYResult:
     lambda1_uncontrolled: from the Jacobian product along the free run (per iteration);
     lambda1_controlled: from the closed-loop Jacobians A - w k^T along the last window;
     closed_loop_multipliers: eigenvalues of M - w~ k^T at the first orbit point; gains k (q, n);
-    status, message, settings."""
+    status ("controlled", "not controlled", or "nothing to control": a target stable without
+    control, where no perturbation is applied and captured_at is None, lambda1_controlled NaN),
+    message, settings."""
     x: np.ndarray
     dp: np.ndarray
     active: np.ndarray
@@ -888,6 +1003,10 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     radius = _finite("radius", radius, "must be a positive scaled distance")
     if radius <= 0:
         raise InputError(f"radius = {radius!r}: must be a positive scaled distance")
+    n_iter = _count("n_iter", n_iter, 1, "iterations of the map under control")
+    window = _count("window", window, 1, "iterations of the final effort and distance")
+    lyapunov_iter = _count("lyapunov_iter", lyapunov_iter, 1,
+                           "iterations of the free lambda1's Jacobian product")
     if orbit is None:
         orbit = periodic_orbit(m, period)
     if not orbit.converged:
@@ -913,6 +1032,10 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
             w = A[(i + j) % q] @ w
         Wq.append((M, w))
         K[i] = _ackermann(M, w)
+    if getattr(orbit, "stable", None) is True:
+        # stable without control (a neutral contact-memory multiplier of a continuum excepted,
+        # nld.analysis.orbits): nothing to place, whatever rounding says of |mu| = 1
+        K[:] = 0.0
     M0, w0 = Wq[0]
     cl_mu = np.linalg.eigvals(M0 - np.outer(w0, K[0]))
     s = m.scales
@@ -932,7 +1055,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         dp = 0.0
         if hold > 0:
             hold -= 1
-        elif dist[i] < radius:
+        elif dist[i] < radius and np.any(K[i]):
             dp = -float(K[i] @ m.difference(x, orbit.points[i]))
             if abs(dp) > dp_max:
                 dp = 0.0
@@ -979,10 +1102,34 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         lam_c = acc / win
     ok = captured is not None and dist_final < radius
     status = "controlled" if ok else "not controlled"
-    msg = (f"{getattr(system, 'name', m.name)}: OGY on {pname}, period {q}: "
-           + (f"captured at iteration {captured}, final distance {dist_final:.2g}, "
-              f"|dp| rms {e0:.3g} -> {e1:.3g}" if ok else
-              f"not captured in {n_iter} iterations (radius {radius:g}, dp_max {dp_max:g})"))
+    name = f"{getattr(system, 'name', m.name)}: OGY on {pname}, period {q}: "
+    applied = bool(np.any(dps != 0.0))
+    if not np.any(K):
+        # a stable target: the pole placement moves nothing, no perturbation is ever applied;
+        # whatever the motion does is the free system's (issue 37): no controlled run to report
+        status = "nothing to control"
+        amu = np.sort(np.abs(np.asarray(orbit.multipliers)))[::-1]
+        cont = bool(getattr(orbit, "continuum", False)) and amu.size > 1
+        if cont:      # the neutral contact-memory multiplier (1) left out, as orbits does
+            amu = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
+        mu_max = float(amu[0]) if amu.size else 0.0
+        msg = name + (f"nothing to control: the target orbit is stable without control "
+                      f"(largest |multiplier| {mu_max:.3g}"
+                      + (", the neutral contact memory's left out" if cont else "")
+                      + "), no perturbation applied; "
+                      + ("the free motion reaches it" if ok else "the free motion does not "
+                         f"reach it in {n_iter} iterations"))
+        captured, lam_c, e0, e1 = None, math.nan, 0.0, 0.0
+    elif not applied:
+        status = "not controlled"
+        msg = name + (f"no control applied in {n_iter} iterations: the motion never came within "
+                      f"the radius {radius:g} with a perturbation |dp| <= dp_max {dp_max:g}")
+        captured, lam_c = None, math.nan
+    else:
+        msg = name + (f"captured at iteration {captured}, final distance {dist_final:.2g}, "
+                      f"|dp| rms {e0:.3g} -> {e1:.3g}" if ok else
+                      f"not captured in {n_iter} iterations (radius {radius:g}, dp_max "
+                      f"{dp_max:g})")
     settings = {"param": pname, "period": q, "dp_max": dp_max, "radius": radius,
                 "n_iter": int(n_iter), "fd_step": h, "window": win,
                 "lyapunov_iter": int(lyapunov_iter), "pole_placement": "unstable -> 0"}

@@ -25,9 +25,12 @@ DEFAULTS = {"method": "edfc", "gain": 1.0, "memory": 0.9, "target_period": 1, "t
 LYAPUNOV_INTERVAL = 0.25      # renormalisation interval of the closed-loop lambda1, revolutions
 LYAPUNOV_D0 = 1e-5            # its separation (scaled), far above the integration's noise
 CHUNK_REVS = 5                # revolutions per integration chunk (Ctrl-C, progress)
-JSON_KEYS = ("lambda1_uncontrolled", "lambda1_controlled", "lambda1_uncertainty",
-             "effort_rms_initial", "effort_rms_final", "captured_at_revolution", "orbit_distance",
-             "onsets_per_period", "settings", "provenance")
+SAMPLES_PER_DELAY = 50        # samples of the controlled run per delay (control_delayed's default)
+JSON_KEYS = ("lambda1_uncontrolled", "lambda1_controlled", "lambda1_controlled_uncertainty",
+             "lambda1_uncontrolled_uncertainty",
+             "lambda1_uncertainty (deprecated: the larger of the two)", "effort_rms_initial",
+             "effort_rms_final", "captured_at_revolution", "orbit_distance", "onsets_per_period",
+             "status (controlled, not controlled, nothing to control)", "settings", "provenance")
 
 HELP = """\
 Chaos control of a crank-driven scene by a torque on one body (the scene's [controller], added
@@ -86,7 +89,8 @@ def add_parser(sub):
                     help=f"controlled revolutions (default {d['revs']})")
     sp.add_argument("--lyapunov-revs", type=count_arg("--lyapunov-revs", 2),
                     default=d["lyapunov_revs"], metavar="REVS",
-                    help=f"revolutions averaged by each lambda1 (default {d['lyapunov_revs']})")
+                    help=f"revolutions averaged by each lambda1, after a quarter as many run "
+                         f"first and not counted (alignment) (default {d['lyapunov_revs']})")
     sp.add_argument("--gains", type=values_of("--gains"), default=None, metavar="A:B:N",
                     help="stability domain: lambda1 of the closed loop at each gain (START:STOP:NUM "
                          "or K1,K2,...), each from the end of the controlled run, after "
@@ -207,6 +211,14 @@ def target_orbit(S, period, transient, rtol, say):
     return found[-1], "close returns of the section"
 
 
+def _largest_multiplier(o) -> float:
+    """max |mu| of an orbit, the neutral contact-memory multiplier of a continuum left out."""
+    amu = np.sort(np.abs(np.asarray(o.multipliers)))[::-1]
+    if getattr(o, "continuum", False) and amu.size > 1:
+        amu = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
+    return float(amu[0]) if amu.size else 0.0
+
+
 def _prime_period(o) -> int:
     """The orbit's prime period (``nld.analysis.orbits.prime_period``)."""
     from nld.analysis.orbits import prime_period
@@ -275,6 +287,13 @@ def run_control(args, say=lambda text: None) -> tuple:
         fb = delayed_feedback(S, st["gain"], tau, st["signal"], memory=st["memory"],
                               input="param", target=target_param,
                               u_max=math.inf if st["u_max"] is None else st["u_max"])
+    if fb is not None:
+        # a tiny delay: the samples and the steps (capped at the delay) of the whole run, before
+        # any work (issue 37: --delay 1e-9 grew to 24 GB)
+        from nld.analysis.control import check_delay_size
+        check_delay_size(S, fb, (args.transient + args.revs) * T, SAMPLES_PER_DELAY,
+                         field="--delay" if args.delay is not None or st["delay"] is None
+                         else "controller.delay (the scene's)")
     kept = ["nothing kept (no result finished)"]
     try:
         target, how = target_orbit(S, P, args.transient, args.rtol, say)
@@ -310,8 +329,19 @@ def _run_delayed(args, S, st, fb, target, say, kept) -> tuple:
         res = C.control_delayed(S, fb, transient=args.transient * T, duration=args.revs * T,
                                 lyapunov_span=args.lyapunov_revs * T, target=target,
                                 rtol=args.rtol, lyapunov_interval=LYAPUNOV_INTERVAL * T,
-                                d0=LYAPUNOV_D0, chunk=CHUNK_REVS * T, progress=prog)
+                                d0=LYAPUNOV_D0, chunk=CHUNK_REVS * T, progress=prog,
+                                samples_per_delay=SAMPLES_PER_DELAY)
     run = res.run
+    status, message = res.status, res.message
+    if target.stable is True:
+        # issue 37: nothing to control -- the motion needs no controller; the closed loop's
+        # numbers below are of a controller acting on a stable motion, not of a control that
+        # stabilised anything
+        status = "nothing to control"
+        message = (f"nothing to control: the target period-{int(st['target_period'])} orbit is "
+                   f"stable without control (largest |multiplier| "
+                   f"{_largest_multiplier(target):.3g}); the closed loop was run anyway: "
+                   + res.message)
     # the orbit the controlled motion is on, by Newton from its last state: for a scene in
     # permanent contact each orbit is one of a continuum labelled by the contact memory, so the
     # captured one can be another member than the target found before control
@@ -331,12 +361,16 @@ def _run_delayed(args, S, st, fb, target, say, kept) -> tuple:
     out = {
         "lambda1_uncontrolled": res.lambda1_uncontrolled * T,
         "lambda1_controlled": res.lambda1_controlled * T,
+        "lambda1_controlled_uncertainty": res.uncertainty_controlled * T,
+        "lambda1_uncontrolled_uncertainty": res.uncertainty_uncontrolled * T,
+        # deprecated (issue 38): the larger of the two above, kept for old readers
         "lambda1_uncertainty": res.lambda1_uncertainty * T,
         "effort_rms_initial": res.effort_rms_initial,
         "effort_rms_final": res.effort_rms_final,
         "captured_at_revolution": None if res.captured_at is None else res.captured_at * per_rev,
         "orbit_distance": d_captured if d_captured is not None else res.orbit_distance,
         "onsets_per_period": res.onsets_per_period if res.onsets_per_period is not None else 0.0,
+        "status": status,
         "settings": {
             "method": st["method"], "body": st["body"], "signal": st["signal"],
             "gain": fb.gain, "memory": fb.memory, "delay": tau, "delay_revolutions": per_rev,
@@ -344,12 +378,14 @@ def _run_delayed(args, S, st, fb, target, say, kept) -> tuple:
             "target_period": int(st["target_period"]), "transient_revs": args.transient,
             "revs": args.revs, "lyapunov_revs": args.lyapunov_revs,
             "lyapunov_interval_revs": LYAPUNOV_INTERVAL, "d0": LYAPUNOV_D0, "rtol": args.rtol,
+            "lyapunov_align_revs": res.settings["lyapunov_align_intervals"] * LYAPUNOV_INTERVAL,
+            "effort_decay_per_revolution": _num(res.effort_decay_rate * T),
             "lyapunov_controlled_memory": res.settings["lyapunov_controlled_memory"],
             "samples_per_delay": spd, "capture_fraction": C.CAPTURE_FRACTION,
             "units": {"lambda1": "per crank revolution", "effort": "N m",
                       "orbit_distance": "scaled state (clearance-based scales, angles mod 2 pi)",
                       "onsets_per_period": "contact onsets per delay period"},
-            "status": res.status, "message": res.message,
+            "status": status, "message": message,
             "uncertainty_uncontrolled": res.uncertainty_uncontrolled * T,
             "uncertainty_controlled": res.uncertainty_controlled * T,
             "periodicity": res.periodicity,
@@ -399,7 +435,8 @@ def _run_ogy(args, S, st, target, param, say) -> dict:
     from nld.analysis import control as C
     n_iter = args.transient + args.revs
     say(f"ogy on {param}: {n_iter} revolutions from the assembly")
-    r = C.ogy(S, param, orbit=target, dp_max=args.dp_max, radius=args.radius, n_iter=n_iter)
+    r = C.ogy(S, param, orbit=target, dp_max=args.dp_max, radius=args.radius, n_iter=n_iter,
+              lyapunov_iter=min(200, n_iter))
     m = target.map
     win = int(r.settings["window"])
     ons = 0
@@ -419,11 +456,14 @@ def _run_ogy(args, S, st, target, param, say) -> dict:
         "lambda1_uncontrolled": r.lambda1_uncontrolled,
         "lambda1_controlled": None if not math.isfinite(r.lambda1_controlled)
         else r.lambda1_controlled,
+        "lambda1_controlled_uncertainty": None,
+        "lambda1_uncontrolled_uncertainty": None,
         "lambda1_uncertainty": None,
         "effort_rms_initial": r.effort_rms_initial,
         "effort_rms_final": r.effort_rms_final,
         "captured_at_revolution": r.captured_at,
         "orbit_distance": r.orbit_distance,
+        "status": r.status,
         "onsets_per_period": ons / nwin * int(target.period),
         "settings": {"method": "ogy", "body": st["body"], "torque_parameter": param,
                      "offset": st["offset"], "dp_max": args.dp_max, "radius": args.radius,
@@ -441,6 +481,11 @@ def _run_ogy(args, S, st, target, param, say) -> dict:
     }
 
 
+def _num(x):
+    """A float for the JSON, None where not finite."""
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
 def _fmt(x, spec=".3g"):
     return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
@@ -452,8 +497,11 @@ def _print(out, S):
              f"{s['delay']:.6g} s" if s["method"] != "ogy" else
              f", dp_max {s['dp_max']:g} N m, radius {s['radius']:g}"))
     print(f"  {s['message']}")
+    if out.get("status") == "nothing to control":
+        print("  NOTHING TO CONTROL: the target orbit is stable without control; the figures "
+              "below are not those of a control that stabilised it")
     unc = out["lambda1_uncertainty"]
-    uu, uc = s.get("uncertainty_uncontrolled"), s.get("uncertainty_controlled")
+    uu, uc = out.get("lambda1_uncontrolled_uncertainty"), out.get("lambda1_controlled_uncertainty")
     print(f"  lambda1 free {_fmt(out['lambda1_uncontrolled'])}"
           + (f" +- {_fmt(uu, '.2g')}" if uu is not None else "")
           + f" -> controlled {_fmt(out['lambda1_controlled'])}"
@@ -461,8 +509,11 @@ def _print(out, S):
              f" +- {_fmt(unc, '.2g')}" if unc is not None else "") + " per revolution"
           + ("; controlled: conditional on the contact memory (permanent contact)"
              if str(s.get("lyapunov_controlled_memory", "")).startswith("held") else ""))
+    dec = s.get("effort_decay_per_revolution")
     print(f"  effort rms {_fmt(out['effort_rms_initial'])} -> {_fmt(out['effort_rms_final'])} N m; "
-          f"captured at revolution {_fmt(out['captured_at_revolution'], 'g')}")
+          f"captured at revolution {_fmt(out['captured_at_revolution'], 'g')}"
+          + (f"; effort decays at {dec:.3g} per revolution after capture (a second estimate of "
+             f"the controlled lambda1)" if dec is not None else ""))
     print(f"  distance to the orbit {_fmt(out['orbit_distance'])} (scaled; "
           f"{s.get('orbit_distance_to', 'target')}); {_fmt(out['onsets_per_period'])} contact "
           f"onsets per period")

@@ -116,13 +116,17 @@ CASES: dict[str, HardCase] = {
         quick_revs=200.0, ref_method="dopri5", ref_rtol=1e-12, ref_revs=0.05, ref_bound=1e-8,
         check="energy", check_bound=2e-4, quick_check_bound=2e-6, samples_per_rev=4,
         max_steps=300_000_000),
-    # the same with DOP853, the higher-order method (docs/integrator.md, "Hard cases": stops with a
-    # non-finite state after ~905 revolutions, at rtol 1e-11 after ~9420; slow only)
+    # the same with DOP853, the higher-order method (docs/integrator.md, "Hard cases"; it stopped
+    # with a non-finite state after ~905 revolutions until issue 38: a step whose end derivative,
+    # the next step's first stage, was not finite was accepted). Energy drift measured at 10^4
+    # revolutions: 2.35e-5 (605 625 impacts; proportional to rtol: 4.0e-7 / 7.0e-8 / 2.1e-8 at
+    # 300 revolutions and rtol 1e-9 / 1e-10 / 1e-11); the bound 2e-5 had been extrapolated from
+    # 905 revolutions, now 5e-5 (2.1x the measured, as dopri5's 2e-4 is 2.2x its 8.9e-5)
     "energy_10krev_dop853": HardCase(
         "slider_crank", CONSERVATIVE, 1.0e4, 1e-10, "dop853", "success",
         "conservative free crank, 10^4 revolutions with dop853",
         quick_revs=200.0, ref_method="dopri5", ref_rtol=1e-12, ref_revs=0.05, ref_bound=1e-8,
-        check="energy", check_bound=2e-5, quick_check_bound=1e-6, samples_per_rev=4,
+        check="energy", check_bound=5e-5, quick_check_bound=1e-6, samples_per_rev=4,
         max_steps=300_000_000),
     # power balance with a motor: constant torque T0 = 0.05 N m on the free crank, conservative
     # contact: E(t) - E(0) = T0 (theta(t) - theta(0)) exactly, and the power column integrates to it
