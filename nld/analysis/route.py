@@ -184,15 +184,20 @@ def _classify_step(oa, ob) -> tuple[str | None, str]:
     return ("period_doubling" if m.real < 0 else "fold"), f"real multiplier {m.real:.4g}"
 
 
-def linked_branch(scene, overrides, param, values, orbit, *, rtol, bisect: int = 4,
-                  progress=None):
+def linked_branch(scene, overrides, param, values, orbit, *, rtol, bisect: int = 3,
+                  transient: int = 10, progress=None):
     """Follow ``orbit`` (the period-1 orbit at the first of ``values``) over ``values`` in order,
     with every key of ``param`` (comma-separated scene keys, e.g. "joints.A.clearance,
-    joints.B.clearance") set to the value: natural continuation (Newton from the previous orbit);
-    between two points whose stability or onset count differ, and before the first value without a
-    converged orbit, ``bisect`` bisections in the value locate the change. Returns a
-    ``nld.analysis.continuation.Branch`` (bifurcations found by their multipliers and onsets;
-    ``settings["last_failure"]``: the value and message of the first failure, if any)."""
+    joints.B.clearance") set to the value: natural continuation (Newton from the previous orbit).
+
+    Where Newton from the previous orbit fails, the orbit is sought again from the state after
+    ``transient`` revolutions of a run at that value: a converged orbit there with another count of
+    contact onsets is the branch continued through a non-smooth point (a contact gained or lost,
+    a grazing when the smallest approach speed fell towards 0 before it), and the branch goes on
+    from it; none: the branch ends there (``settings["last_failure"]``). Between two points whose
+    stability or onset count differ, ``bisect`` bisections in the value (Newton from the lower
+    side's orbit) locate the change: value ± half the final bracket. Returns a
+    ``nld.analysis.continuation.Branch``."""
     from nld.analysis.continuation import Bifurcation, Branch
     from nld.analysis.orbits import periodic_orbit
     from nld.errors import SolveError
@@ -201,64 +206,60 @@ def linked_branch(scene, overrides, param, values, orbit, *, rtol, bisect: int =
     orbs = [orbit]
     bifs = []
     msg = "completed"
-    settings = {"param": param, "method": "natural (linked keys)", "period": orbit.period,
-                "rtol": rtol, "values": [float(v) for v in values]}
+    settings = {"param": param, "method": "natural (keys set together), restarted from a run "
+                "across a non-smooth point", "period": orbit.period, "rtol": rtol,
+                "values": [float(v) for v in values], "bisect": bisect, "transient": transient}
 
-    def solve(v, like):
+    def solve(v, like=None):
+        S = _linked_system(scene, overrides, keys, v)
         try:
-            o = periodic_orbit(_linked_system(scene, overrides, keys, v), like.period,
-                               guess=like.points[0], z=like.z[0], rtol=rtol)
+            if like is None:
+                o = periodic_orbit(S, orbit.period, transient=transient, rtol=rtol)
+            else:
+                o = periodic_orbit(S, like.period, guess=like.points[0], z=like.z[0], rtol=rtol)
         except SolveError as e:
             return None, str(e)
         return (o, "") if o.converged else (None, o.message)
 
     for v in values[1:]:
         v = float(v)
-        o, why = solve(v, orbs[-1])
+        a, oa = vals[-1], orbs[-1]
+        o, why = solve(v, oa)
+        restarted = False
+        if o is None:
+            o, why2 = solve(v)
+            restarted = o is not None
+            if o is None:
+                msg = (f"no period-{orbit.period} orbit at {param} = {v:.6g} (Newton from the orbit "
+                       f"at {a:.6g}: {why}; from a run of {transient} revolutions: {why2})")
+                settings["last_failure"] = {"value": v, "message": why2, "last_orbit": a}
+                break
         if progress is not None:
             progress(v, o)
-        a, oa = vals[-1], orbs[-1]
-        if o is None:
-            # the branch is lost between a and v: bisect for the last value with an orbit
-            lo, olo, hi = a, oa, v
-            for _ in range(bisect):
-                mid = 0.5 * (lo + hi)
-                om, _w = solve(mid, olo)
-                if om is None:
-                    hi = mid
-                else:
-                    lo, olo = mid, om
-            if lo != a:
-                vals.append(lo)
-                orbs.append(olo)
-                kind, det = _classify_step(oa, olo)
-                if kind:
-                    bifs.append(Bifurcation(kind, 0.5 * (a + lo), 0.5 * (lo - a), None, oa,
-                                            f"{kind} between {a:.6g} and {lo:.6g}: {det}",
-                                            (a, lo)))
-            msg = (f"no period-{orbit.period} orbit from {param} = {hi:.6g} on (Newton: {why}); "
-                   f"the last orbit at {lo:.6g}")
-            settings["last_failure"] = {"value": hi, "message": why, "last_orbit": lo}
-            break
         kind, det = _classify_step(oa, o)
         if kind:
             lo, olo, hi, ohi = a, oa, v, o
             for _ in range(bisect):
                 mid = 0.5 * (lo + hi)
                 om, _w = solve(mid, olo)
-                if om is None:
-                    break
-                if _classify_step(olo, om)[0] is None:
+                if om is not None and _classify_step(olo, om)[0] is None:
                     lo, olo = mid, om
                 else:
-                    hi, ohi = mid, om
+                    hi = mid
+                    if om is not None:
+                        ohi = om
             kind, det = _classify_step(olo, ohi)
-            if kind:
-                crit = _critical_multipliers(ohi)
-                m = crit[int(np.argmax(np.abs(crit)))] if crit.size else None
-                bifs.append(Bifurcation(kind, 0.5 * (lo + hi), 0.5 * (hi - lo), m, olo,
-                                        f"{kind} at {0.5 * (lo + hi):.6g} ± {0.5 * (hi - lo):.2g}: "
-                                        f"{det}", (lo, hi)))
+            kind = kind or "contact_change"
+            crit = _critical_multipliers(ohi)
+            m = crit[int(np.argmax(np.abs(crit)))] if crit.size else None
+            det = (f"{det}; onsets {olo.onsets.tolist()} -> {ohi.onsets.tolist()}, max |mu| "
+                   f"{olo.max_abs_multiplier:.3g} -> {ohi.max_abs_multiplier:.3g}, smallest "
+                   f"approach speed {oa.min_approach_speed:.3g} -> {olo.min_approach_speed:.3g} m/s"
+                   + ("; Newton from the lower side's orbit fails beyond it, the orbit found again "
+                      "from a run" if restarted else ""))
+            bifs.append(Bifurcation(kind, 0.5 * (lo + hi), 0.5 * (hi - lo), m, olo,
+                                    f"{kind} at {0.5 * (lo + hi):.6g} ± {0.5 * (hi - lo):.2g}: {det}",
+                                    (lo, hi)))
         vals.append(v)
         orbs.append(o)
     return Branch(param, orbit.period, vals, orbs, bifs, msg, settings)
@@ -320,7 +321,7 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
     else:
         if linked:
             br = linked_branch(scene, overrides, param, [v for v in grid if v >= start], o,
-                               rtol=rtol)
+                               rtol=rtol, transient=transient)
         else:
             br = _continue(S, o, param, grid, method=method, max_points=max_points,
                            locate_tol=ltol)
@@ -339,6 +340,9 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
             out["at_values"] = _polish(scene, overrides, keys, br, values, rtol)
         if observables:
             out["section"] = {v: _section_of(orb, observables) for v, orb in out["at_values"].items()}
+            # the branch's own points (in branch order), for the curve between the sweep values
+            out["curve"] = [(float(v), _section_of(orb, observables), orbit_class(orb))
+                            for v, orb in zip(br.values, br.orbits)]
         out["route"] = branch_sentence(br, param, start, out["ends"])
     if chaotic is not None and max_period >= 1:
         try:
@@ -732,22 +736,24 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
     if sweep is not None and len(sweep) and observable in sweep.columns:
         ok = sweep[sweep["status"] == "ok"] if "status" in sweep.columns else sweep
         ax.scatter(ok["value"].to_numpy(float) * param_scale, ok[observable].to_numpy(float) * scale,
-                   s=2.0, linewidths=0, color="0.55", label="brute force (section points)")
+                   s=7.0, linewidths=0, color="0.55", label="brute force (section points)")
     shown = set()
     if route is not None and route.get("branch") is not None and route.get("section"):
         br = route["branch"]
         sec = route["section"]
         vs = sorted(v for v in sec if observable in sec[v])
-        # the branch's own points too (its observable), for the stretches between sweep values
         ys = {v: np.atleast_1d(sec[v][observable]) for v in vs}
         styles = {"stable": "-", "unstable": "--", "neutral continuum": ":", "neutral": ":"}
         cls = {v: orbit_class(route["at_values"][v]) for v in vs}
+        # the branch's own points in branch order: the curve, styled by the class of each stretch
+        curve = route.get("curve") or [(v, sec[v], cls[v]) for v in vs]
         for k in range(br.period):
-            for a, b in zip(vs[:-1], vs[1:]):
-                c = cls[a] if cls[a] == cls[b] else "unstable" if "unstable" in (cls[a], cls[b]) \
-                    else cls[a]
+            for (a, sa, ca), (b, sb, cb) in zip(curve[:-1], curve[1:]):
+                c = ca if ca == cb else "unstable" if "unstable" in (ca, cb) else ca
                 lab = f"period {br.period}, {c}"
-                ax.plot([a * param_scale, b * param_scale], [ys[a][k] * scale, ys[b][k] * scale],
+                ax.plot([a * param_scale, b * param_scale],
+                        [np.atleast_1d(sa[observable])[k] * scale,
+                         np.atleast_1d(sb[observable])[k] * scale],
                         styles[c], color="C0", lw=1.6, label=None if lab in shown else lab)
                 shown.add(lab)
             for v in vs:
@@ -766,7 +772,7 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
     bx.axhline(0.0, color="k", lw=0.6)
     marks = table[table["transition"].isin(
         ["period_doubling", "fold", "neimark_sacker", "grazing", "contact_change",
-         "onset_of_chaos", "end_of_chaos", "branch_end"])]
+         "onset_of_chaos", "end_of_chaos", "regime_change", "branch_end"])]
     seen = set()
     for n, (_, r) in enumerate(marks.iterrows()):
         x = r["at"] * param_scale
@@ -844,6 +850,11 @@ def route_tables(route: dict) -> dict:
         if route.get("force") and len(route["force"]) == len(t):
             t["min_Fn"] = [f[0] for f in route["force"]]
             t["max_Fn"] = [f[1] for f in route["force"]]
+        curve = route.get("curve") or []
+        if len(curve) == len(t):
+            # the observables at the orbit's (first) section point, as the brute force records them
+            for name in curve[0][1] if curve else []:
+                t[name] = [float(np.atleast_1d(c[1][name])[0]) for c in curve]
         out["branch"] = t
     ups = route.get("upos") or []
     out["orbits"] = (pd.concat([orbit_rows([o]).assign(
@@ -869,13 +880,18 @@ def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
 
 def save_route(study, routes: dict, table: pd.DataFrame, sde: bool = False) -> None:
     """The route's provenance records (``study.prov["route_to_chaos"]``: {sweep: record}) and
-    tables: ``<stem>_route.csv`` (``table``: every sweep's rows, :func:`route_table`) and per
-    continued sweep ``<stem>_route_<sweep>_branch.csv`` and ``_orbits.csv``."""
+    tables: ``<stem>_route.csv`` (``table``: every sweep's rows, :func:`route_table`),
+    ``<stem>_route_branch.csv`` (one row per branch point of every continued sweep, column
+    ``sweep`` first) and ``<stem>_route_orbits.csv`` (the orbits found in a chaotic range)."""
     study.prov["route_to_chaos"] = {k: route_record(v, sde) for k, v in routes.items()
                                     if v is not None}
     study.save("_route.csv", table)
+    parts = {"branch": [], "orbits": []}
     for sweep, route in routes.items():
         if route is None:
             continue
         for name, tab in route_tables(route).items():
-            study.save(f"_route_{sweep}_{name}.csv", tab)
+            parts[name].append(tab.assign(sweep=sweep)[["sweep"] + list(tab.columns)])
+    for name, frames in parts.items():
+        if frames:
+            study.save(f"_route_{name}.csv", pd.concat(frames, ignore_index=True))
