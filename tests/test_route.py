@@ -83,3 +83,28 @@ def test_agreement_on_the_section_within_the_tolerance():
     a = agreement(_route_with(0.1, (0.5e-3, -2e-3), _orbit([1.0, 0.5], continuum=True)), sweep,
                   ["x", "y"], 1e-3, tol=1e-4)
     assert a["why"].iloc[0] == "continuum"
+
+
+def test_linked_branch_matches_natural_continuation_on_the_slider_crank():
+    """linked_branch (keys set together, here one key named twice) follows the same orbits as
+    nld.analysis.continuation's natural continuation of slider_crank_olyaei in μ (permanent
+    contact: a continuum, neutral in the memory direction, stable otherwise)."""
+    from nld.analysis.continuation import continue_orbit
+    from nld.analysis.orbits import periodic_orbit
+    from nld.analysis.route import branch_ends, linked_branch
+    from nld.systems.core import SceneSystem
+    key = "joints.B.friction.mu"
+    S = SceneSystem("slider_crank_olyaei", [f"{key}=0.1"])
+    o = periodic_orbit(S, 1, transient=10, rtol=1e-8)
+    assert o.converged
+    vals = [0.09, 0.1, 0.11]
+    br = linked_branch("slider_crank_olyaei", [], f"{key},{key}", vals, o, start=0.1, rtol=1e-8,
+                       transient=10)
+    ref = continue_orbit(S, o, key, vals, method="natural")
+    assert br.values == pytest.approx(vals) and list(ref.values) == pytest.approx(vals)
+    for a, b in zip(br.orbits, ref.orbits):
+        assert np.max(np.abs(a.points - b.points)) <= 1e-6 * np.max(np.abs(b.points))
+        assert a.max_abs_multiplier == pytest.approx(b.max_abs_multiplier, abs=1e-4)
+        assert orbit_class(a) == "neutral continuum"
+    assert [e["reason"] for e in branch_ends(br)] == ["range_end", "range_end"]
+    assert not br.bifurcations

@@ -116,6 +116,8 @@ def branch_ends(br) -> list[dict]:
     ``reason`` and ``detail`` (``Branch.ends`` where it exists, else from the branch's message
     and its extreme values)."""
     ends = getattr(br, "ends", None)
+    if not ends and (br.settings or {}).get("ends"):
+        return [dict(e) for e in br.settings["ends"]]
     if ends:
         return [{"direction": int(e.direction), "value": float(e.value), "reason": str(e.reason),
                  "detail": str(e.detail)} for e in ends]
@@ -184,31 +186,32 @@ def _classify_step(oa, ob) -> tuple[str | None, str]:
     return ("period_doubling" if m.real < 0 else "fold"), f"real multiplier {m.real:.4g}"
 
 
-def linked_branch(scene, overrides, param, values, orbit, *, rtol, bisect: int = 3,
-                  transient: int = 10, progress=None):
-    """Follow ``orbit`` (the period-1 orbit at the first of ``values``) over ``values`` in order,
-    with every key of ``param`` (comma-separated scene keys, e.g. "joints.A.clearance,
+def linked_branch(scene, overrides, param, values, orbit, *, start: float, rtol, bisect: int = 3,
+                  transient: int = 10, guess: str = "previous", progress=None):
+    """Follow ``orbit`` (the period-1 orbit at ``start``) over ``values``, outwards from ``start``
+    both ways, with every key of ``param`` (comma-separated scene keys, e.g. "joints.A.clearance,
     joints.B.clearance") set to the value: natural continuation (Newton from the previous orbit).
 
     Where Newton from the previous orbit fails, the orbit is sought again from the state after
-    ``transient`` revolutions of a run at that value: a converged orbit there with another count of
-    contact onsets is the branch continued through a non-smooth point (a contact gained or lost,
-    a grazing when the smallest approach speed fell towards 0 before it), and the branch goes on
-    from it; none: the branch ends there (``settings["last_failure"]``). Between two points whose
-    stability or onset count differ, ``bisect`` bisections in the value (Newton from the lower
-    side's orbit) locate the change: value ± half the final bracket. Returns a
-    ``nld.analysis.continuation.Branch``."""
+    ``transient`` revolutions of a run at that value: a converged orbit there is the branch
+    continued through a non-smooth point (a contact gained or lost: the onset count changes) or a
+    jump to another orbit, and the branch goes on from it; none: the branch ends there (its end's
+    reason "newton_failure"). ``guess`` "run": the run's state first at every value, the previous
+    orbit where that fails (for a non-smooth map whose Newton basins are narrower than the steps: an
+    orbit per value, joined where the onset counts and stability agree). Between two points whose stability or onset count differ, ``bisect``
+    bisections in the value (Newton from the orbit on the start's side) locate the change: value ±
+    half the final bracket. Returns a ``nld.analysis.continuation.Branch`` (values increasing;
+    ``settings["ends"]``: how each end ends, as :func:`branch_ends` gives them)."""
     from nld.analysis.continuation import Bifurcation, Branch
     from nld.analysis.orbits import periodic_orbit
     from nld.errors import SolveError
     keys = _keys(param)
-    vals = [float(values[0])]
-    orbs = [orbit]
-    bifs = []
-    msg = "completed"
-    settings = {"param": param, "method": "natural (keys set together), restarted from a run "
-                "across a non-smooth point", "period": orbit.period, "rtol": rtol,
-                "values": [float(v) for v in values], "bisect": bisect, "transient": transient}
+    settings = {"param": param, "method": ("natural (keys set together), restarted from a run "
+                "where Newton fails" if guess != "run" else "an orbit per value from a run "
+                "(keys set together), joined where onsets and stability agree"),
+                "period": orbit.period, "rtol": rtol, "guess": guess,
+                "values": [float(v) for v in values], "bisect": bisect, "transient": transient,
+                "ends": []}
 
     def solve(v, like=None):
         S = _linked_system(scene, overrides, keys, v)
@@ -221,48 +224,71 @@ def linked_branch(scene, overrides, param, values, orbit, *, rtol, bisect: int =
             return None, str(e)
         return (o, "") if o.converged else (None, o.message)
 
-    for v in values[1:]:
-        v = float(v)
-        a, oa = vals[-1], orbs[-1]
-        o, why = solve(v, oa)
-        restarted = False
-        if o is None:
-            o, why2 = solve(v)
-            restarted = o is not None
+    bifs = []
+
+    def walk(seq, direction):
+        vals, orbs = [float(start)], [orbit]
+        end = {"direction": direction, "value": float(start), "reason": "range_end", "detail": ""}
+        for v in seq:
+            v = float(v)
+            a, oa = vals[-1], orbs[-1]
+            first, second = (None, oa) if guess == "run" else (oa, None)
+            o, why = solve(v, first)
+            restarted = False
             if o is None:
-                msg = (f"no period-{orbit.period} orbit at {param} = {v:.6g} (Newton from the orbit "
-                       f"at {a:.6g}: {why}; from a run of {transient} revolutions: {why2})")
-                settings["last_failure"] = {"value": v, "message": why2, "last_orbit": a}
-                break
-        if progress is not None:
-            progress(v, o)
-        kind, det = _classify_step(oa, o)
-        if kind:
-            lo, olo, hi, ohi = a, oa, v, o
-            for _ in range(bisect):
-                mid = 0.5 * (lo + hi)
-                om, _w = solve(mid, olo)
-                if om is not None and _classify_step(olo, om)[0] is None:
-                    lo, olo = mid, om
-                else:
-                    hi = mid
-                    if om is not None:
-                        ohi = om
-            kind, det = _classify_step(olo, ohi)
-            kind = kind or "contact_change"
-            crit = _critical_multipliers(ohi)
-            m = crit[int(np.argmax(np.abs(crit)))] if crit.size else None
-            det = (f"{det}; onsets {olo.onsets.tolist()} -> {ohi.onsets.tolist()}, max |mu| "
-                   f"{olo.max_abs_multiplier:.3g} -> {ohi.max_abs_multiplier:.3g}, smallest "
-                   f"approach speed {oa.min_approach_speed:.3g} -> {olo.min_approach_speed:.3g} m/s"
-                   + ("; Newton from the lower side's orbit fails beyond it, the orbit found again "
-                      "from a run" if restarted else ""))
-            bifs.append(Bifurcation(kind, 0.5 * (lo + hi), 0.5 * (hi - lo), m, olo,
-                                    f"{kind} at {0.5 * (lo + hi):.6g} ± {0.5 * (hi - lo):.2g}: {det}",
-                                    (lo, hi)))
-        vals.append(v)
-        orbs.append(o)
-    return Branch(param, orbit.period, vals, orbs, bifs, msg, settings)
+                o, why2 = solve(v, second)
+                restarted = o is not None and guess != "run"
+                if o is None:
+                    end = {"direction": direction, "value": a, "reason": "newton_failure",
+                           "detail": f"no period-{orbit.period} orbit at {v:.6g} (Newton from "
+                                     f"the orbit at {a:.6g} and from a run of {transient} "
+                                     f"revolutions: {why if guess != 'run' else why2}; "
+                                     f"{why2 if guess != 'run' else why})"}
+                    return vals, orbs, end
+            if progress is not None:
+                progress(v, o)
+            kind, det = _classify_step(oa, o)
+            if kind or restarted:
+                lo, olo, hi, ohi = a, oa, v, o
+                for _ in range(bisect):
+                    mid = 0.5 * (lo + hi)
+                    om, _w = solve(mid, olo)
+                    if om is not None and _classify_step(olo, om)[0] is None:
+                        lo, olo = mid, om
+                    else:
+                        hi = mid
+                        if om is not None:
+                            ohi = om
+                kind, det = _classify_step(olo, ohi)
+                kind = kind or "contact_change"
+                crit = _critical_multipliers(ohi)
+                m = crit[int(np.argmax(np.abs(crit)))] if crit.size else None
+                det = (f"{det}; onsets {olo.onsets.tolist()} -> {ohi.onsets.tolist()}, max |mu| "
+                       f"{olo.max_abs_multiplier:.3g} -> {ohi.max_abs_multiplier:.3g}, smallest "
+                       f"approach speed {oa.min_approach_speed:.3g} -> "
+                       f"{olo.min_approach_speed:.3g} m/s"
+                       + ("; Newton from the orbit before it fails beyond it: the orbit found again "
+                          "from a run" if restarted else ""))
+                bifs.append(Bifurcation(kind, 0.5 * (lo + hi), 0.5 * abs(hi - lo), m, olo,
+                                        f"{kind} at {0.5 * (lo + hi):.6g} ± "
+                                        f"{0.5 * abs(hi - lo):.2g}: {det}", (min(lo, hi),
+                                                                            max(lo, hi))))
+            vals.append(v)
+            orbs.append(o)
+        end["value"] = vals[-1]
+        return vals, orbs, end
+
+    up = sorted(float(v) for v in values if v > start)
+    down = sorted((float(v) for v in values if v < start), reverse=True)
+    vu, ou, eu = walk(up, +1)
+    vd, od, ed = walk(down, -1)
+    vals = vd[::-1] + vu[1:]
+    orbs = od[::-1] + ou[1:]
+    settings["ends"] = [ed, eu]
+    msg = "; ".join(f"{'low' if e['direction'] < 0 else 'high'} end: {e['reason']}"
+                    + (f" ({e['detail']})" if e["detail"] else "") for e in (ed, eu))
+    return Branch(param, orbit.period, vals, orbs, sorted(bifs, key=lambda b: b.value), msg,
+                  settings)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -273,7 +299,8 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                    rtol: float = 1e-10, transient: int = 50, max_period: int = 2,
                    seeds_per_period: int = 4, locate_tol: float | None = None,
                    method: str = "arclength", max_points: int = 60, polish: bool = True,
-                   observables=(), progress=None) -> dict:
+                   observables=(), guess: str = "previous", bisect: int = 3,
+                   progress=None) -> dict:
     """The period-1 orbit of ``scene`` at ``param`` = ``start`` (Newton shooting from the state
     after ``transient`` revolutions), continued over the range of ``values`` (the sweep's values;
     ``method`` "arclength": pseudo-arclength both ways from ``start``, at most ``max_points``
@@ -320,8 +347,8 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                         f"there from the assembly is not periodic with period 1")
     else:
         if linked:
-            br = linked_branch(scene, overrides, param, [v for v in grid if v >= start], o,
-                               rtol=rtol, transient=transient)
+            br = linked_branch(scene, overrides, param, grid, o, start=start, rtol=rtol,
+                               transient=transient, guess=guess, bisect=bisect)
         else:
             br = _continue(S, o, param, grid, method=method, max_points=max_points,
                            locate_tol=ltol)
@@ -875,7 +902,8 @@ def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
                           chaotic=r.get("chaotic"), transient=r["transient"],
                           max_period=r.get("max_period", 0), rtol=r.get("rtol", 1e-10),
                           method=r.get("method", "arclength"),
-                          max_points=r.get("max_points", 60), observables=observables)
+                          max_points=r.get("max_points", 60), observables=observables,
+                          guess=r.get("guess", "previous"), bisect=r.get("bisect", 3))
 
 
 def save_route(study, routes: dict, table: pd.DataFrame, sde: bool = False) -> None:
