@@ -108,17 +108,19 @@ ANALYSIS_SMOKE = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=0,
                       clearances=[1e-5], frictions=[0.0])
 SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # the route to chaos (nld.analysis.route, docs/route.md): the period-1 orbit at r1 = r2 = start
-# (below the clearance sweep, where the motion is periodic) continued in both clearances together
-# (the clearance sweep moves them together) over route values, the loss of the orbit located by
-# bisection; the clearance sweep's points below 10 um (ROUTE_CLEARANCES) give λ1 on each side.
-# Newton on the excavator: about 3-6 Newton steps of a tangent revolution each (docs/route.md).
+# (below the clearance sweep, where the motion is periodic: 16 contact onsets per revolution, max
+# |mu| 0.018) continued in both clearances together (the clearance sweep moves them together),
+# Newton from the previous orbit and, where that fails, from a run of `transient` revolutions; each
+# change of stability or onset count located by `bisect` bisections. Between 3.5 and 3.75 µm the
+# onsets change (11 + 8 -> 12 + 6) and the orbit turns unstable (mu +24.8): the first transition.
+# Cost: 5-10 Newton solves of 10-30 CPU s each (docs/route.md). The points ROUTE_CLEARANCES
+# (below the committed 10 µm) are added to the clearance sweep: λ1 on each side of the route.
 ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
-                  max_period=0, transient=10, rtol=1e-8, values=[3e-6, 4e-6, 5e-6, 7e-6, 1e-5])
-ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6, 3.5e-6])
+                  max_period=0, transient=10, rtol=1e-8, bisect=2,
+                  values=[3e-6, 3.5e-6, 3.75e-6])
+ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6, 3.25e-6], bisect=1)
 ROUTE_SMOKE = None
-# points below the committed clearance sweep that the route adds to it (λ1 where the motion is
-# periodic): full and quick mode
-ROUTE_CLEARANCES = {"full": [3e-6, 5e-6], "quick": [3e-6], "smoke": []}
+ROUTE_CLEARANCES = {"full": [3e-6, 3.5e-6, 3.75e-6, 5e-6], "quick": [3e-6], "smoke": []}
 # the agreement of the branch with the brute-force section: within ROUTE_TOL x the start clearance
 ROUTE_TOL = 1e-3
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
