@@ -820,7 +820,10 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
     bx.set_ylabel("λ1 [1/rev]")
     bx.set_xlabel(label + (f" [{param_unit}]" if param_unit else ""))
     if logx:
+        from matplotlib.ticker import FormatStrFormatter, NullFormatter
         bx.set_xscale("log")
+        bx.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+        bx.xaxis.set_minor_formatter(NullFormatter())
     h, lab = ax.get_legend_handles_labels()
     if h:
         ax.legend(h, lab, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
