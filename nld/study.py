@@ -410,6 +410,9 @@ def route_page(rep, route: dict | None, sweep, pts, table, observable: str, *, l
             f"unstable or neutral). " + route["route"])
     elif route is not None:
         cap.append(f"Branch: {route['route']}")
+    else:
+        cap.append("No branch was continued in this sweep: the rows come from the brute force "
+                   "alone (regime changes located between sweep points, ± half the spacing).")
     if route is not None and route.get("settings", {}).get("chaotic") is not None:
         from nld.analysis.route import orbit_class
         ups = route.get("upos") or []
@@ -420,9 +423,6 @@ def route_page(rep, route: dict | None, sweep, pts, table, observable: str, *, l
                                 f"{o.max_abs_multiplier:.3g})" for o in ups) if ups else
                       "none found" + (f" ({route['upos_error']})" if route.get("upos_error") else ""))
                    + " (the _route_orbits.csv table).")
-    else:
-        cap.append("No branch was continued in this sweep: the rows come from the brute force "
-                   "alone (regime changes located between sweep points, ± half the spacing).")
     if agree is not None and len(agree):
         bad = agree[(agree["class"] != "unstable") & (~agree["agrees"])]
         cap.append("Agreement: every branch point called stable or neutral lies on the "

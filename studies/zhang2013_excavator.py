@@ -113,12 +113,12 @@ SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # Newton from the previous orbit and, where that fails, from a run of `transient` revolutions; each
 # change of stability or onset count located by `bisect` bisections. Between 3.5 and 3.75 µm the
 # onsets change (11 + 8 -> 12 + 6) and the orbit turns unstable (mu +24.8): the first transition.
-# Cost: 5-10 Newton solves of 10-30 CPU s each (docs/route.md). The points ROUTE_CLEARANCES
+# Cost: about 190 CPU s with two bisections (docs/route.md), so one in full mode. The points ROUTE_CLEARANCES
 # (below the committed 10 µm) are added to the clearance sweep: λ1 on each side of the route.
 ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
-                  max_period=0, transient=10, rtol=1e-8, bisect=2,
+                  max_period=0, transient=10, rtol=1e-8, bisect=1,
                   values=[3e-6, 3.5e-6, 3.75e-6])
-ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6, 3.25e-6], bisect=1)
+ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6, 3.25e-6], bisect=0)
 ROUTE_SMOKE = None
 ROUTE_CLEARANCES = {"full": [3e-6, 3.5e-6, 3.75e-6, 5e-6], "quick": [3e-6], "smoke": []}
 # the agreement of the branch with the brute-force section: within ROUTE_TOL x the start clearance

@@ -108,3 +108,20 @@ def test_linked_branch_matches_natural_continuation_on_the_slider_crank():
         assert orbit_class(a) == "neutral continuum"
     assert [e["reason"] for e in branch_ends(br)] == ["range_end", "range_end"]
     assert not br.bifurcations
+
+
+def test_a_jump_of_the_multipliers_is_a_contact_change_not_a_period_doubling():
+    from nld.analysis.route import _classify_step
+
+    def orb(mu, onsets):
+        o = _orbit(mu)
+        o.onsets = np.array(onsets)
+        return o
+    # a multiplier through -1 continuously: period doubling; through +1: fold
+    assert _classify_step(orb([-0.9], [2, 1]), orb([-1.1], [2, 1]))[0] == "period_doubling"
+    assert _classify_step(orb([0.95], [2, 1]), orb([1.05], [2, 1]))[0] == "fold"
+    # the excavator at 3.5 -> 3.75 um: 0.04 -> -50 with the same onsets: no crossing, a jump
+    assert _classify_step(orb([0.0427], [11, 8]), orb([-50.5], [11, 8]))[0] == "contact_change"
+    # the onsets of each joint, not only their sum, tell a contact gained or lost
+    assert _classify_step(orb([0.04], [11, 8]), orb([0.03], [9, 10]))[0] == "contact_change"
+    assert _classify_step(orb([0.04], [11, 8]), orb([0.03], [11, 8]))[0] is None

@@ -169,18 +169,26 @@ def _linked_system(scene, overrides, keys, value):
 
 
 def _classify_step(oa, ob) -> tuple[str | None, str]:
-    """The bifurcation kind between two orbits of a branch, from their multipliers and onsets."""
-    if oa.onsets_per_period != ob.onsets_per_period:
-        return "contact_change", (f"contact onsets per period {oa.onsets_per_period} -> "
-                                  f"{ob.onsets_per_period}")
+    """The bifurcation kind between two orbits of a branch, from their contact onsets (per joint)
+    and multipliers: "contact_change" when the onsets differ, or when the stability changes by a
+    jump of the multipliers (the stable side's largest below 0.5 or the unstable side's above 2:
+    no multiplier crossed the unit circle continuously, a non-smooth change); else
+    "period_doubling" (a real multiplier through -1), "fold" (through +1) or "neimark_sacker"."""
+    if not np.array_equal(np.asarray(oa.onsets), np.asarray(ob.onsets)):
+        return "contact_change", (f"contact onsets per period {np.asarray(oa.onsets).tolist()} -> "
+                                  f"{np.asarray(ob.onsets).tolist()}")
     sa, sb = orbit_stability(oa), orbit_stability(ob)
     if sa == sb:
         return None, ""
-    mu = _critical_multipliers(ob if sb == "unstable" else oa)
-    if not mu.size:
+    ma = _critical_multipliers(oa)
+    mb = _critical_multipliers(ob)
+    if not ma.size or not mb.size:
         return None, ""
-    k = int(np.argmax(np.abs(mu)))
-    m = mu[k]
+    lo, hi = (ma, mb) if sa == "stable" else (mb, ma)
+    m = hi[int(np.argmax(np.abs(hi)))]
+    if np.max(np.abs(lo)) < 0.5 or abs(m) > 2.0:
+        return "contact_change", (f"max |mu| jumps {np.max(np.abs(lo)):.3g} -> {abs(m):.3g} with "
+                                  f"the same onsets: a non-smooth change, no multiplier crossing")
     if abs(m.imag) > 1e-9 * max(1.0, abs(m)):
         return "neimark_sacker", f"complex pair |mu| = {abs(m):.4g}"
     return ("period_doubling" if m.real < 0 else "fold"), f"real multiplier {m.real:.4g}"
@@ -722,7 +730,9 @@ def route_sentence(table: pd.DataFrame, symbol: str, *, scale: float = 1.0, unit
         else:
             w = k.replace("_", " ")
         if "branch: " in r["evidence"]:
-            w += " [branch: " + r["evidence"].split("branch: ")[1].split(" at ")[0] + "]"
+            kind = r["evidence"].split("branch: ")[1].split(" at ")[0]
+            w = f"{kind.replace('_', ' ')} of the period-1 orbit" + (
+                ", onset of chaos" if "chaos" in w else "")
         return f"{w} at {at(r)}"
 
     idx = list(range(len(bf)))
@@ -801,12 +811,17 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
         ["period_doubling", "fold", "neimark_sacker", "grazing", "contact_change",
          "onset_of_chaos", "end_of_chaos", "regime_change", "branch_end"])]
     seen = set()
-    for n, (_, r) in enumerate(marks.iterrows()):
+    # one mark per location: the branch's kind first, a brute-force change only where none is
+    marks = marks.assign(_k=(marks["transition"] == "regime_change").astype(int)).sort_values(
+        ["_k", "at"], kind="stable")
+    n = -1
+    for _, r in marks.iterrows():
         x = r["at"] * param_scale
-        key = (round(x, 12), r["transition"])
+        key = round(x, 12)
         if key in seen:
             continue
         seen.add(key)
+        n += 1
         colour = "tab:red" if r["transition"] in ("onset_of_chaos", "end_of_chaos") else "tab:green"
         for axx in (ax, bx):
             axx.axvline(x, color=colour, lw=0.9, ls="-.")
