@@ -41,7 +41,8 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import verdict as verdict_rule
+from nld.analysis.route import save_route
+from nld.study import sde, verdict as verdict_rule
 
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
@@ -828,8 +829,6 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     total_wall = study.elapsed()
     _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
     stacked = _save(study, sweeps, points, summary, tolcheck, states, cen)
-    from nld.analysis.route import save_route
-    from nld.study import sde
     save_route(study, {"friction": route["route"]}, route["table"], sde())
     _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route,
             cen)

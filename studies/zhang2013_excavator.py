@@ -1105,7 +1105,7 @@ def _sensitivity_page(rep) -> None:
     runpy.run_path(str(Path(__file__).with_name("zhang2013_sensitivity.py")))["paper_page"](rep, summary, prov)
 
 
-def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
+def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra, route=None):
     # time series of every case (and the ideal twin), with a steady flag
     data = {}
     for name, df in {**tables, "ideal": ideal}.items():
@@ -1122,6 +1122,10 @@ def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
     spec_frames = {f"{n}:{j}": pd.DataFrame(sp) for (n, j), (sp, _) in spectra.items() if sp is not None}
     if spec_frames:
         study.save("_spectra.parquet", spec_frames)
+    if route is not None:
+        from nld.analysis.route import save_route
+        from nld.study import sde
+        save_route(study, {"clearance": route["route"]}, route["table"], sde())
 
 
 def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
@@ -1265,9 +1269,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     conv = convergence_table(maxima, check, settings)
     sim_wall = study.elapsed()
     an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
-    an["clearances"] = sorted(set(an["clearances"]) | set(ROUTE_CLEARANCES[study.mode]))
-    secs, pts = run_analysis(an, workers=workers)
-    route = run_routes(study, secs, pts)
+    secs, pts, route = analysis_and_route(study, an, workers)
     study.stage("force spectra", "zhang2013")
     spectra = force_spectra(tables, ts)
     analysis_wall = time.perf_counter() - t_an
@@ -1279,13 +1281,18 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         summary=summary.to_dict(orient="records"), peak_convergence=conv.to_dict(orient="records"),
         simulation_wall_s=sim_wall, analysis=an, analysis_wall_s=analysis_wall,
         analysis_points=pts.to_dict(orient="records"))
-    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra)
-    from nld.analysis.route import save_route
-    from nld.study import sde
-    save_route(study, {"clearance": route["route"]}, route["table"], sde())
+    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra, route)
     _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
             sim_wall, analysis_wall, workers, route)
     return study.pdf
+
+
+def analysis_and_route(study, an: dict, workers: int):
+    """The chaos analysis (run_analysis) with ROUTE_CLEARANCES[mode] added to the clearance sweep
+    (``an`` is updated), then the route to chaos (run_routes). Returns (sections, points, route)."""
+    an["clearances"] = sorted(set(an["clearances"]) | set(ROUTE_CLEARANCES[study.mode]))
+    secs, pts = run_analysis(an, workers=workers)
+    return secs, pts, run_routes(study, secs, pts)
 
 
 def section_periods(secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
