@@ -146,8 +146,11 @@ def _continue(system, orbit, param, values, *, method, max_points, locate_tol):
     lo, hi = float(min(values)), float(max(values))
     if method == "arclength":
         try:
-            br = continue_orbit(system, orbit, param, range=(lo, hi), method="arclength",
-                                max_points=max_points, locate_tol=locate_tol)
+            try:
+                br = continue_orbit(system, orbit, param, range=(lo, hi), method="arclength",
+                                    max_points=max_points, locate_tol=locate_tol)
+            except TypeError:          # a continue_orbit without these options
+                br = continue_orbit(system, orbit, param, range=(lo, hi))
             if len(br.values) >= 2:
                 return br
         except SolveError:
