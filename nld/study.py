@@ -380,239 +380,61 @@ class Study:
 
 
 # ---------------------------------------------------------------------------------------------------
-# the route to chaos of a study's sweep: periodic-orbit branch, named bifurcations, unstable orbits
+# the route to chaos of a study's sweep: the workflow is nld.analysis.route's; here only its page
 
 
-def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaotic: float | None,
-                   rtol: float = 1e-10, transient: int = 50, max_period: int = 2,
-                   seeds_per_period: int = 4, locate_tol: float | None = None,
-                   progress=None) -> dict:
-    """The period-1 orbit of ``scene`` at ``param`` = ``start`` (Newton shooting from the state
-    after ``transient`` revolutions), continued over ``values`` (natural continuation, both ways
-    from ``start``) with its multipliers and the bifurcations located (``locate_tol``, default 1e-3
-    of the smallest step); and the distinct orbits of periods 1..``max_period`` at ``chaotic`` (a
-    value inside the sweep's chaotic range; None: none searched). Returns a dict: ``orbit`` (the
-    start orbit), ``branch`` (``nld.analysis.continuation.Branch`` or None), ``upos`` (list of
-    PeriodicOrbit), ``route`` (one sentence: how the period-1 motion ends towards ``chaotic``),
-    ``settings`` and ``wall_s``. Never raises for a failed solve: the failure is in ``route``."""
-    from nld.analysis.continuation import continue_orbit
-    from nld.analysis.orbits import find_orbits, periodic_orbit
-    from nld.errors import SolveError
-    from nld.systems.core import SceneSystem
-    t0 = time.perf_counter()
-    values = sorted(float(v) for v in values)
-    if start not in values:
-        values = sorted(values + [float(start)])
-    steps = np.diff(values) if len(values) > 1 else np.array([1.0])
-    ltol = locate_tol if locate_tol is not None else 1e-3 * float(np.min(steps))
-    out = {"orbit": None, "branch": None, "upos": [], "route": "", "param": param,
-           "settings": dict(rtol=rtol, transient_revs=transient, start=start, chaotic=chaotic,
-                            max_period=max_period, seeds_per_period=seeds_per_period,
-                            locate_tol=ltol, values=values)}
-    S = SceneSystem(scene, list(overrides) + [f"{param}={start!r}"])
-    try:
-        o = periodic_orbit(S, 1, transient=transient, rtol=rtol)
-    except SolveError as e:
-        out["route"] = f"no period-1 orbit at {param} = {start:g}: {e}"
-        out["wall_s"] = time.perf_counter() - t0
-        return out
-    out["orbit"] = o
-    if not o.converged:
-        out["route"] = f"no period-1 orbit at {param} = {start:g} ({o.message})"
+def route_page(rep, route: dict | None, sweep, pts, table, observable: str, *, label: str,
+               symbol: str, scale: float = 1.0, unit: str = "", param_scale: float = 1.0,
+               param_unit: str = "", logx: bool = False, agree=None) -> None:
+    """The report page of one sweep's route to chaos (nld.analysis.route): ONE figure, the
+    brute-force diagram (grey) with the continued branch over it (stable solid, unstable dashed,
+    neutral dotted) and λ1 beneath on the same parameter axis, the transitions of ``table``
+    (:func:`nld.analysis.route.route_table`) marked; the caption states the sequence in one
+    sentence (:func:`nld.analysis.route.route_sentence`), how the branch was found and where it
+    disagrees with the brute force (``agree``: :func:`nld.analysis.route.agreement`)."""
+    from nld.analysis.route import route_figure, route_sentence
+    sentence = route_sentence(table, symbol, scale=param_scale, unit=param_unit)
+    with rep.style():
+        fig, (ax, bx) = rep.subplots(2, 1, title=f"Route to chaos in the {label}", sharex=True,
+                                     gridspec_kw={"height_ratios": [3, 1.4]})
+        route_figure(ax, bx, route, sweep, pts, table, observable, label=label, scale=scale,
+                     unit=unit, param_scale=param_scale, param_unit=param_unit, logx=logx)
+    cap = [f"Route: {sentence}"]
+    if route is not None and route.get("branch") is not None:
+        st = route["settings"]
+        cap.append(
+            f"Branch: the period-1 orbit at {symbol} = {st['start'] * param_scale:.4g}"
+            f"{' ' + param_unit if param_unit else ''} (Newton shooting on the stroboscopic map, "
+            f"rtol {st['rtol']:g}) continued ({st['method']}) over the sweep's range, and "
+            f"polished by Newton at each sweep value it spans (circles: filled stable, open "
+            f"unstable or neutral). " + route["route"])
+    elif route is not None:
+        cap.append(f"Branch: {route['route']}")
     else:
-        br = continue_orbit(S, o, param, values, locate_tol=ltol, progress=progress)
-        out["branch"] = br
-        # the contact force over each orbit: a permanent contact ends where its minimum reaches 0
-        joint = S.kernel.topo.clearance[0] if S.kernel.topo.clearance else None
-        out["force"] = []
-        if joint is not None:
-            for orb in br.orbits:
-                try:
-                    f = orb.observe(f"{joint}.Fn", 400)[f"{joint}.Fn"].to_numpy(float)
-                    out["force"].append((float(f.min()), float(f.max())))
-                except SolveError:
-                    out["force"].append((float("nan"), float("nan")))
-        out["joint"] = joint
-        out["route"] = _route_sentence(br, param, start, chaotic, out["force"], joint)
-    if chaotic is not None and max_period >= 1:
-        try:
-            Sc = SceneSystem(scene, list(overrides) + [f"{param}={chaotic!r}"])
-            out["upos"] = find_orbits(Sc, max_period, transient=transient, rtol=rtol,
-                                      seeds_per_period=seeds_per_period, n_points=80)
-        except SolveError as e:
-            out["upos_error"] = str(e)
-    out["wall_s"] = time.perf_counter() - t0
-    return out
-
-
-def _route_sentence(br, param, start, chaotic, force=(), joint=None) -> str:
-    """How the period-1 branch from ``start`` ends towards ``chaotic`` (one or two sentences)."""
-    if chaotic is None:
-        st = sorted({("stable" if o.stable else "unstable" if o.stable is False else "undecided")
-                     for o in br.orbits})
-        return (f"The period-1 orbit at {param} = {start:g} is followed over "
-                f"{min(br.values):g} ... {max(br.values):g} ({', '.join(st)}; "
-                f"{len(br.bifurcations)} bifurcation(s) located); no chaotic value was given to "
-                f"follow it towards.")
-    sign = 1.0 if chaotic > start else -1.0
-    vals = np.array(br.values, dtype=float)
-    ahead = [b for b in br.bifurcations if (b.value - start) * sign > 0
-             and (b.value - chaotic) * sign <= 0]
-    ahead.sort(key=lambda b: (b.value - start) * sign)
-    reach = vals[(vals - start) * sign >= 0]
-    last = reach[np.argmax((reach - start) * sign)] if reach.size else start
-    cont = any(o.continuum for o in br.orbits)
-    memo = (" The orbit is in permanent contact (its contact-law memory is never reset): one of a "
-            "continuum of orbits selected by the history." if cont else "")
-    first_unstable = next((v for v, o in sorted(zip(br.values, br.orbits),
-                                                key=lambda t: (t[0] - start) * sign)
-                           if (v - start) * sign > 0 and o.stable is False), None)
-    if ahead:
-        b = ahead[0]
-        s = (f"Going from {param} = {start:g} towards {chaotic:g}, the period-1 orbit meets a "
-             f"{b.kind.replace('_', ' ')} at {b.value:.5g} ± {b.tolerance:.2g}.")
-    elif (last - chaotic) * sign < 0:
-        s = (f"Going from {param} = {start:g} towards {chaotic:g}, the period-1 orbit is followed "
-             f"to {last:g} and no further (no orbit at the next value): it ends without a "
-             f"bifurcation the multipliers announce.")
-        vals_l = list(br.values)
-        k = vals_l.index(last) if last in vals_l else -1
-        if force and k >= 0 and np.isfinite(force[k][0]) and br.orbits[k].onsets_per_period == 0:
-            fmin, fmax = force[k]
-            # the smallest contact force over the revolution along the branch, start -> end
-            order = sorted(range(len(vals_l)), key=lambda i: (vals_l[i] - start) * sign)
-            mins = [force[i][0] for i in order if (vals_l[i] - start) * sign >= 0]
-            falling = len(mins) >= 3 and mins[-1] < mins[-2] < mins[-3]
-            s += (f" At {last:g} the smallest contact force of {joint} over the revolution is "
-                  f"{fmin:.3g} N (largest {fmax:.3g} N; along the branch "
-                  + ", ".join(f"{v:.3g}" for v in mins) + " N).")
-            if falling and fmin < 0.01 * fmax:
-                s += (" It falls towards zero: the permanent contact is about to open (the "
-                      "journal lifts off), a non-smooth end of the branch, not a period doubling.")
-            else:
-                s += (" It does not fall towards zero there, so the branch does not end by the "
-                      "journal lifting off; it ends at a fold or a jump that natural continuation "
-                      "cannot follow.")
-    else:
-        s = (f"The period-1 orbit exists from {start:g} to {chaotic:g} without a bifurcation: it "
-             f"coexists with the chaotic motion found there from the assembly.")
-    if first_unstable is not None:
-        s += f" It is first unstable at {first_unstable:g}."
-    return s + memo
-
-
-def orbit_rows(orbits, value_of=None) -> "pd.DataFrame":
-    """A table of orbits (a branch's or a search's): period, stability, max |mu| ± error,
-    onsets per period, smallest approach speed (m/s), continuum, residual."""
-    import pandas as pd
-    rows = []
-    for i, o in enumerate(orbits):
-        r = {} if value_of is None else {"value": value_of(i)}
-        r.update(period=o.period,
-                 stable={True: "stable", False: "unstable", None: "undecided"}[o.stable],
-                 max_abs_mu=o.max_abs_multiplier,
-                 mu_error=float(np.max(o.multiplier_error)) if o.multiplier_error.size else 0.0,
-                 onsets=o.onsets_per_period,
-                 min_approach=(o.min_approach_speed if np.isfinite(o.min_approach_speed)
-                               else float("nan")),
-                 continuum=o.continuum, residual=o.residual)
-        rows.append(r)
-    return pd.DataFrame(rows)
-
-
-def route_pages(rep, route: dict, sweep, observable: str, *, label: str, scale: float = 1.0,
-                unit: str = "", param_scale: float = 1.0, param_unit: str = "") -> None:
-    """The report pages of :func:`route_to_chaos`: the branch over the brute-force diagram, the
-    branch and orbit tables, and the route sentence."""
-    from nld.analysis.continuation import branch_curves
-    from nld.output.plots import branch_diagram
-    br = route["branch"]
-    st = route["settings"]
-    if br is not None and br.orbits:
-        with rep.style():
-            fig, ax = rep.subplots(1, 1, title=f"Periodic-orbit branch: continuation in the {label}")
-            base = br.orbits[0].map.flow
-            branch_diagram(branch_curves([br], base, observable), observable, label, sweep=sweep,
-                           ax=ax, scale=scale, unit=unit, param_scale=param_scale,
-                           param_unit=param_unit, title="")
-        rep.figure(fig, caption=(
-            f"The period-1 orbit at {route['param']} = {st['start']:g} (Newton shooting on the "
-            f"stroboscopic map with the monodromy matrix, rtol {st['rtol']:g}) continued over the "
-            f"sweep's values (natural continuation): solid stable, dashed unstable, dotted "
-            f"undecided (Floquet multipliers within their uncertainty of the unit circle); "
-            f"marks: located bifurcations (PD period doubling, fold, NS Neimark-Sacker, grazing, "
-            f"contact change: a contact gained or lost at a finite approach speed). Grey: the "
-            f"brute-force section points of the same sweep. " + route["route"]))
-        tab = orbit_rows(br.orbits, lambda i: br.values[i])
-        if route.get("force") and len(route["force"]) == len(tab):
-            tab["min_Fn"] = [f[0] for f in route["force"]]
-            tab["max_Fn"] = [f[1] for f in route["force"]]
-        rep.table(f"Period-1 branch: multipliers and contacts along the {label}", tab,
-                  {"min_approach": "m/s", "min_Fn": "N", "max_Fn": "N"},
-                  notes=[route["route"], "Bifurcations: " + ("; ".join(b.detail for b in br.bifurcations)
-                                                            or "none on the branch") + "."])
-    paras = [route["route"]]
-    if route.get("upos"):
-        up = orbit_rows(route["upos"])
-        rep.table(f"Periodic orbits at {route['param']} = {st['chaotic']:g} (inside the chaotic "
-                  f"range), periods 1..{st['max_period']}", up, {"min_approach": "m/s"},
-                  notes=[f"Found by Newton shooting from the {st['seeds_per_period']} closest "
-                         "returns per period of an 80-point section after the transient; an "
-                         "unstable orbit is a piece of the chaotic attractor's skeleton, a stable "
-                         "one a coexisting periodic motion."])
-    elif st.get("chaotic") is not None:
-        paras.append(f"No periodic orbit of period 1..{st['max_period']} was found from the close "
-                     f"returns at {route['param']} = {st['chaotic']:g}"
-                     + (f" ({route['upos_error']})" if route.get("upos_error") else "") + ".")
-    rep.text_page(f"Route to chaos in the {label}", paras)
-
-
-def route_record(route: dict) -> dict:
-    """The provenance record of :func:`route_to_chaos` (plain JSON types)."""
-    br = route.get("branch")
-    return {"route": route.get("route", ""), "param": route.get("param"),
-            "settings": route.get("settings", {}),
-            "bifurcations": [] if br is None else [b.to_dict() for b in br.bifurcations],
-            "branch_message": None if br is None else br.message,
-            "upos": [o.to_dict() for o in route.get("upos", [])],
-            "wall_s": None if sde() else route.get("wall_s")}
-
-
-def route_tables(route: dict) -> dict:
-    """The tables of :func:`route_to_chaos` to save: ``branch`` (one row per branch point, with the
-    contact force range) and ``orbits`` (the orbits found in the chaotic range)."""
-    import pandas as pd
-    out = {}
-    br = route.get("branch")
-    if br is not None:
-        t = br.table()
-        if route.get("force") and len(route["force"]) == len(t):
-            t["min_Fn"] = [f[0] for f in route["force"]]
-            t["max_Fn"] = [f[1] for f in route["force"]]
-        out["branch"] = t
-    ups = route.get("upos") or []
-    out["orbits"] = (pd.concat([orbit_rows([o]).assign(
-        point=[o.points[0].tolist()]) for o in ups], ignore_index=True) if ups
-        else pd.DataFrame(columns=["period", "stable", "max_abs_mu"]))
-    return out
-
-
-def run_route(study, scene: str, st: dict) -> dict:
-    """:func:`route_to_chaos` with a study's ``st["route"]`` settings, its provenance record in
-    ``study.prov["route_to_chaos"]`` (add it after ``study.provenance``) and progress stage."""
-    r = st["route"]
-    study.stage("route to chaos (periodic orbits)")
-    return route_to_chaos(scene, [], r["param"], r["values"], start=r["start"],
-                          chaotic=r["chaotic"], transient=r["transient"],
-                          max_period=r["max_period"], rtol=r.get("rtol", 1e-10))
-
-
-def save_route(study, route: dict) -> None:
-    """The route's provenance record and its tables (``<stem>_route_branch.csv``,
-    ``<stem>_route_orbits.csv``)."""
-    study.prov["route_to_chaos"] = route_record(route)
-    for name, tab in route_tables(route).items():
-        study.save(f"_route_{name}.csv", tab)
+        cap.append("No branch was continued in this sweep: the rows come from the brute force "
+                   "alone (regime changes located between sweep points, ± half the spacing).")
+    if route is not None and route.get("settings", {}).get("chaotic") is not None:
+        from nld.analysis.route import orbit_class
+        ups = route.get("upos") or []
+        st = route["settings"]
+        cap.append(f"Periodic orbits of periods 1..{st['max_period']} inside the chaotic range "
+                   f"({symbol} = {st['chaotic'] * param_scale:.4g}): "
+                   + (", ".join(f"period {o.period} {orbit_class(o)} (max |mu| "
+                                f"{o.max_abs_multiplier:.3g})" for o in ups) if ups else
+                      "none found" + (f" ({route['upos_error']})" if route.get("upos_error") else ""))
+                   + " (the _route_orbits.csv table).")
+    if agree is not None and len(agree):
+        bad = agree[(agree["class"] != "unstable") & (~agree["agrees"])]
+        cap.append("Agreement: every branch point called stable or neutral lies on the "
+                   "brute-force section at its value (within the integration error)." if not len(bad)
+                   else "Agreement: the brute-force section is not on the branch at "
+                   + "; ".join(f"{v * param_scale:.4g} ({w})" for v, w in zip(bad["value"], bad["why"]))
+                   + ".")
+    cap.append("Grey: brute-force section points; lines dash-dot: transitions (green: of the "
+               "branch or the regime, red: of λ1), shaded: their uncertainty. Beneath: λ1 per "
+               "revolution ± its uncertainty (red: chaotic). Every row with its evidence is in "
+               "the study's _route.csv.")
+    rep.figure(fig, caption=" ".join(cap))
 
 
 # ---------------------------------------------------------------- coexisting motions

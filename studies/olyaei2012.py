@@ -41,7 +41,8 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import route_pages, run_route, save_route, verdict as verdict_rule
+from nld.analysis.route import save_route
+from nld.study import sde, verdict as verdict_rule
 
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
@@ -62,7 +63,8 @@ FULL = dict(rtol=1e-8, transient_revs=100, revs=64, lyap_revs=64, lyap_rtol=1e-1
             check_rtol_factor=0.1, check_span=2, workers=2,
             census=dict(starts=16, transient=100, record=100, rtol=1e-9, always=[]),
             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.02, max_period=2,
-                       transient=50, values=[0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.075, 0.1]))
+                       transient=50, method="arclength", max_points=60,
+                       values=[0.0, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3]))
 QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-10,
              speeds=[1500.0 / RPM, 3000.0 / RPM, SPEED0], clearances=[0.05e-3, 0.5e-3],
              frictions=[0.0, 0.1], speeds_low_mu=[1500.0 / RPM, SPEED0],
@@ -72,7 +74,7 @@ QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-1
              # path is exercised
              census=dict(starts=2, transient=10, record=16, rtol=1e-7, always=[("friction", 0)]),
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
-                        transient=10, values=[0.09, 0.1], rtol=1e-8))
+                        transient=10, values=[0.09, 0.1], rtol=1e-8, method="natural"))
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
@@ -865,15 +867,39 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     summary = summary_table(points)
     states = showcase_states(points, st, walls)
     tolcheck = _timed(walls, "tolerance check", tolerance_check, points, st)
-    route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
-    walls["route to chaos"] = route["wall_s"]
+    route = run_routes(study, st, sweeps, points)   # the friction sweep's period-1 orbit continued
+    walls["route to chaos"] = route["route"]["wall_s"]
     total_wall = study.elapsed()
     _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
     stacked = _save(study, sweeps, points, summary, tolcheck, states, cen)
-    save_route(study, route)
+    save_route(study, {"friction": route["route"]}, route["table"], sde())
     _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route,
             cen)
     return study.pdf
+
+
+# the route's agreement check: a branch orbit called stable lies on the brute-force section when the
+# section's last points are within ROUTE_TOL x the clearance of it (after 100 transient revolutions
+# at rtol 1e-8)
+ROUTE_TOL = 1e-3
+# the route pages: sweep -> (symbol, logarithmic parameter axis)
+ROUTE_SYMBOLS = {"speed": ("ω", False), "clearance": ("c", True), "friction": ("μ", False),
+                 "speed_mu0.05": ("ω", False)}
+
+
+def run_routes(study, st, sweeps, points) -> dict:
+    """The route to chaos of every sweep (nld.analysis.route): the period-1 orbit of the friction
+    sweep continued over its range (st["route"]) and checked against the brute-force section at
+    each sweep value it spans (to ROUTE_TOL x C0); the route rows of every sweep (the others from
+    the brute force alone). Returns {"route", "agree", "table"}."""
+    from nld.analysis.route import agreement, route_table, run_route
+    route = run_route(study, SCENE, st["route"], observables=["B.ex", "B.ey"])
+    agree = agreement(route, sweeps["friction"], ["B.ex", "B.ey"], C0, tol=ROUTE_TOL)
+    table = pd.concat([route_table(name, SWEEPS[name][0], points[name], period_col="period_c",
+                                   route=route if name == "friction" else None,
+                                   agree=agree if name == "friction" else None)
+                       for name in SWEEPS], ignore_index=True)
+    return {"route": route, "agree": agree, "table": table}
 
 
 def load_base():
@@ -1019,9 +1045,17 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
         elim = ec_limit(*stacked.values(), floor=EC_LIM)
         for name in SWEEPS:
             _fig_sweep(rep, name, sweeps[name], points[name], st, ylim, elim)
-            if name == "friction" and route is not None:
-                route_pages(rep, route, sweeps[name], "B.ex", label="friction coefficient μ",
-                            scale=1e3, unit="mm")
+            if route is not None:
+                from nld.study import route_page
+                _param, label, pscale, punit, _log = SWEEPS[name]
+                symbol, logx = ROUTE_SYMBOLS[name]
+                tab = route["table"]
+                cont = name == "friction"
+                route_page(rep, route["route"] if cont else None, sweeps[name], points[name],
+                           tab[tab["sweep"] == name], "B.ex", label=f"{label} ({FIXED[name]})",
+                           symbol=symbol, scale=1e3, unit="mm", param_scale=pscale,
+                           param_unit="" if punit == "−" else punit, logx=logx,
+                           agree=route["agree"] if cont else None)
         tc = _with_check(tolcheck)
         tc.insert(4, "unc_with_check_per_rev", tc.pop("unc_with_check_per_rev"))
         tc["value"] = [_fmt_value(n, v) for n, v in zip(tc["sweep"], tc["value"])]

@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from nld.output.report import ec_limit
-from nld.study import route_pages, run_route, save_route, verdict as verdict_rule
+from nld.study import verdict as verdict_rule
 
 SCENE = "four_bar"
 STEM = "rhee1996"
@@ -56,7 +56,8 @@ FULL = dict(rtol=1e-8, transient_revs=100, section_revs=200, lyap_revs=200, spec
             rtol_check=1e-10, check_span=2, workers=2,
             census=dict(starts=16, transient=100, record=100, rtol=1e-8, always=[]),
             route=dict(param="joints.B.friction.mu", start=0.1, chaotic=0.0, max_period=2,
-                       transient=50, values=[0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.1]))
+                       transient=50, method="arclength", max_points=60,
+                       values=[0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.08, 0.1, 0.15, 0.2, 0.3]))
 QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_revs=4,
              samples_per_rev=360, peak_detect=20, sweep_transient=10, sweep_revs=12, sweep_lyap=12,
              clearances=[0.05e-3, 0.25e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
@@ -65,11 +66,11 @@ QUICK = dict(rtol=1e-7, transient_revs=10, section_revs=30, lyap_revs=20, spec_r
              # path is exercised (the report says so)
              census=dict(starts=2, transient=10, record=16, rtol=1e-7, always=["mu=0.3"]),
              route=dict(param="joints.B.friction.mu", start=0.1, chaotic=None, max_period=0,
-                        transient=10, values=[0.09, 0.1], rtol=1e-8))
+                        transient=10, values=[0.09, 0.1], rtol=1e-8, method="natural"))
 # smoke (the test suite's default run; the quick mode is its -m slow variant): the quick mode's pages
 # and checks on the sweeps' end points, with shorter spans
 SMOKE = dict(QUICK, transient_revs=4, section_revs=10, lyap_revs=8, spec_revs=3, sweep_transient=4,
-             sweep_revs=6, sweep_lyap=6, clearances=[0.05e-3, 0.5e-3], frictions=[0.0, 0.3],
+             sweep_revs=6, sweep_lyap=6, clearances=[0.05e-3, 0.5e-3], frictions=[0.0, 0.1, 0.3],
              census=dict(QUICK["census"], transient=4),
              route=dict(QUICK["route"], transient=5, rtol=1e-7))
 MODE_LABELS = {"quick": "QUICK MODE: short transients and averages",
@@ -89,6 +90,10 @@ COLORS = {"c=0.05mm": "tab:green", "c=0.25mm": "tab:blue", "c=0.5mm": "tab:purpl
 N_PEAKS = 3
 PEAK_LEVEL = 0.95          # level of the per-revolution peak intervals (nld.analysis.peaks.peak_interval)
 PERIOD_TOL = 1e-6          # section period: points repeat to PERIOD_TOL x clearance
+# the route's agreement check: a branch orbit called stable lies on the brute-force section when the
+# section's last points are within PERIOD_TOL_ROUTE x clearance of it (the sweep's transient of 100
+# revolutions at rtol 1e-8 leaves the motion about that close to an orbit whose multipliers are 0.9)
+PERIOD_TOL_ROUTE = 1e-3
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
 # points the section cannot tell an attractor from a transient, whatever the exponent says
 MIN_SECTION_POINTS = 50
@@ -634,11 +639,13 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     add_sweep_verdicts(res, pts_c, pts_f)
     cen = run_census(study, st, res, pts_c, pts_f, base.joints["B"].clearance)
     summary = pd.DataFrame([res[n]["row"] for n in CASES])
-    route = run_route(study, SCENE, st)          # the period-1 orbit of the friction sweep
+    route = run_routes(study, st, sweeps, pts_c, pts_f, base.joints["B"].clearance)
     wall = study.elapsed()
     _provenance(study, base, st, res, sweeps, pts_c, pts_f, summary, period, walls, wall)
     _save(study, base, res, sweeps, summary, cen)
-    save_route(study, route)
+    from nld.analysis.route import save_route
+    from nld.study import sde
+    save_route(study, {"friction": route["route"]}, route["table"], sde())
     _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route, cen)
     return study.pdf
 
@@ -682,6 +689,20 @@ def _provenance(study, base, st, res, sweeps, pts_c, pts_f, summary, period, wal
                                    "friction": pts_f.to_dict(orient="records")},
                      sweep_estimator={k: estimator_line(sweep_estimator_settings(v, period), period)
                                       for k, v in sweeps.items()})
+
+
+def run_routes(study, st, sweeps, pts_c, pts_f, c_f) -> dict:
+    """The route to chaos of both sweeps (nld.analysis.route): the period-1 orbit of the friction
+    sweep continued over its range (st["route"]) and checked against the brute-force section at
+    every sweep value (to PERIOD_TOL_ROUTE x the clearance), and the route rows of both sweeps
+    (the clearance sweep: brute force alone). Returns {"route", "agree", "table"}."""
+    from nld.analysis.route import agreement, route_table, run_route
+    route = run_route(study, SCENE, st["route"], observables=["B.ex", "B.ey"])
+    agree = agreement(route, sweeps["friction"], ["B.ex", "B.ey"], c_f, tol=PERIOD_TOL_ROUTE)
+    table = pd.concat([route_table("clearance", "joints.B.clearance", pts_c, period_col="period"),
+                       route_table("friction", st["route"]["param"], pts_f, period_col="period",
+                                   route=route, agree=agree)], ignore_index=True)
+    return {"route": route, "agree": agree, "table": table}
 
 
 def run_census(study, st, res, pts_c, pts_f, c_f):
@@ -813,8 +834,14 @@ def _report(study, base, res, sweeps, pts_c, pts_f, summary, period, wall, route
                    f"(c = {base.joints['B'].clearance * 1e3:g} mm)", 1.0, False, base.joints["B"].clearance,
                    period, ylim, elim)
         if route is not None:
-            route_pages(rep, route, sweeps["friction"], "B.ex", label="friction coefficient μ",
-                        scale=1e3, unit="mm")
+            from nld.study import route_page
+            tab = route["table"]
+            route_page(rep, None, sweeps["clearance"], pts_c, tab[tab["sweep"] == "clearance"],
+                       "B.ex", label="clearance c (μ = 0.01)", symbol="c", scale=1e3, unit="mm",
+                       param_scale=1e3, param_unit="mm", logx=True)
+            route_page(rep, route["route"], sweeps["friction"], pts_f, tab[tab["sweep"] == "friction"],
+                       "B.ex", label=f"friction coefficient μ (c = {base.joints['B'].clearance * 1e3:g} mm)",
+                       symbol="μ", scale=1e3, unit="mm", agree=route["agree"])
         _fig_spectra(rep, res)
         _fig_convergence(rep, res, period)
         rep.text_page("Source vs ours: trends and why they differ", _discussion(summary, pts_c, pts_f))

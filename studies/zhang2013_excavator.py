@@ -107,6 +107,22 @@ ANALYSIS_QUICK = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=1,
 ANALYSIS_SMOKE = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=0, section_revs=1, lyap_revs=2,
                       clearances=[1e-5], frictions=[0.0])
 SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
+# the route to chaos (nld.analysis.route, docs/route.md): the period-1 orbit at r1 = r2 = start
+# (below the clearance sweep, where the motion is periodic: 16 contact onsets per revolution, max
+# |mu| 0.018) continued in both clearances together (the clearance sweep moves them together),
+# Newton from the previous orbit and, where that fails, from a run of `transient` revolutions; each
+# change of stability or onset count located by `bisect` bisections. Between 3.5 and 3.75 µm the
+# onsets change (11 + 8 -> 12 + 6) and the orbit turns unstable (mu +24.8): the first transition.
+# Cost: about 190 CPU s with two bisections (docs/route.md), so one in full mode. The points ROUTE_CLEARANCES
+# (below the committed 10 µm) are added to the clearance sweep: λ1 on each side of the route.
+ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
+                  max_period=0, transient=10, rtol=1e-8, bisect=1,
+                  values=[3e-6, 3.5e-6, 3.75e-6])
+ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6], bisect=0)      # the start orbit only (test time)
+ROUTE_SMOKE = None
+ROUTE_CLEARANCES = {"full": [3e-6, 3.5e-6, 3.75e-6, 5e-6], "quick": [3e-6], "smoke": []}
+# the agreement of the branch with the brute-force section: within ROUTE_TOL x the start clearance
+ROUTE_TOL = 1e-3
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
 # points the section cannot tell an attractor from a transient, whatever the exponent says
 MIN_SECTION_POINTS = 50
@@ -1095,7 +1111,7 @@ def _sensitivity_page(rep, summary=None, settings=None) -> None:
     runpy.run_path(str(Path(__file__).with_name("zhang2013_sensitivity.py")))["paper_page"](rep, sens, prov, own=own)
 
 
-def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
+def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra, route=None):
     # time series of every case (and the ideal twin), with a steady flag
     data = {}
     for name, df in {**tables, "ideal": ideal}.items():
@@ -1112,10 +1128,14 @@ def _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra):
     spec_frames = {f"{n}:{j}": pd.DataFrame(sp) for (n, j), (sp, _) in spectra.items() if sp is not None}
     if spec_frames:
         study.save("_spectra.parquet", spec_frames)
+    if route is not None:
+        from nld.analysis.route import save_route
+        from nld.study import sde
+        save_route(study, {"clearance": route["route"]}, route["table"], sde())
 
 
 def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
-            sim_wall, analysis_wall, workers):
+            sim_wall, analysis_wall, workers, route=None):
     from nld.run.simulate import crank_period
     from nld.study import sde as _sde
     from nld.study import run_table, timing
@@ -1217,6 +1237,18 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
         _fig_sections(rep, secs, pts, period)
         _fig_bifurcation(rep, "clearance", secs, pts, an, period)
         _fig_bifurcation(rep, "friction", secs, pts, an, period)
+        if route is not None:
+            from nld.study import route_page
+            tab = route["table"]
+            sc = secs[secs["rev"] >= 0]
+            route_page(rep, route["route"], sc[sc["sweep"] == "clearance"],
+                       route["points"]["clearance"], tab[tab["sweep"] == "clearance"], "B.ex",
+                       label="clearance r1 = r2 (f = 0.01)", symbol="r", scale=1e6, unit="µm",
+                       param_scale=1e3, param_unit="mm", logx=True, agree=route["agree"])
+            route_page(rep, None, sc[sc["sweep"] == "friction"], route["points"]["friction"],
+                       tab[tab["sweep"] == "friction"], "B.ex",
+                       label="friction coefficient f (r1 = 0.07, r2 = 0.03 mm)", symbol="f",
+                       scale=1e6, unit="µm")
         _fig_spectra(rep, spectra)
         rep.table("Run statistics", run_table(runs, RUN_COLUMNS), col_units={"wall time": "s"},
                   notes=["Integrator statistics of each case (nld.analysis.extrema.revolution_maxima: dopri5, one "
@@ -1243,7 +1275,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     conv = convergence_table(maxima, check, settings)
     sim_wall = study.elapsed()
     an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
-    secs, pts = run_analysis(an, workers=workers)
+    secs, pts, route = analysis_and_route(study, an, workers)
     study.stage("force spectra", "zhang2013")
     spectra = force_spectra(tables, ts)
     analysis_wall = time.perf_counter() - t_an
@@ -1255,10 +1287,56 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
         summary=summary.to_dict(orient="records"), peak_convergence=conv.to_dict(orient="records"),
         simulation_wall_s=sim_wall, analysis=an, analysis_wall_s=analysis_wall,
         analysis_points=pts.to_dict(orient="records"))
-    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra)
+    _save(study, tables, ideal, ts, summary, maxima, check, secs, pts, spectra, route)
     _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, secs, pts, spectra,
-            sim_wall, analysis_wall, workers)
+            sim_wall, analysis_wall, workers, route)
     return study.pdf
+
+
+def analysis_and_route(study, an: dict, workers: int):
+    """The chaos analysis (run_analysis) with ROUTE_CLEARANCES[mode] added to the clearance sweep
+    (``an`` is updated), then the route to chaos (run_routes). Returns (sections, points, route)."""
+    an["clearances"] = sorted(set(an["clearances"]) | set(ROUTE_CLEARANCES[study.mode]))
+    secs, pts = run_analysis(an, workers=workers)
+    return secs, pts, run_routes(study, secs, pts)
+
+
+def section_periods(secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
+    """pts with ``period``: the period of each point's section (A and B eccentricities repeating
+    to ROUTE_TOL x the smaller clearance of the point; 0 = none up to 16)."""
+    from nld.analysis.poincare import period_of
+    out = pts.copy()
+    per = []
+    for _, r in pts.iterrows():
+        g = secs[(secs["sweep"] == r["sweep"]) & (secs["value"] == r["value"]) & (secs["rev"] >= 0)]
+        c = float(r["value"]) if r["sweep"] == "clearance" else 0.03e-3
+        ok = r["status"] == "ok" and len(g) >= 2
+        per.append(period_of(g[SECTION_OBS].to_numpy(float), tol=ROUTE_TOL, scale=c,
+                             n_max=max(1, min(16, len(g) // 2))) if ok else 0)
+    out["period"] = np.array(per, dtype=int)
+    return out
+
+
+def run_routes(study, secs, pts) -> dict:
+    """The route to chaos of both sweeps (nld.analysis.route): the period-1 orbit at r1 = r2 =
+    ROUTE_*["start"] continued in both clearances together and checked against the brute-force
+    section at each clearance of the sweep it spans; the route rows of the clearance sweep (with the
+    branch) and of the friction sweep (brute force alone). Returns {"route", "agree", "table"}."""
+    from nld.analysis.route import agreement, route_table, run_route
+    r = {"full": ROUTE_FULL, "quick": ROUTE_QUICK, "smoke": ROUTE_SMOKE}[study.mode]
+    route = run_route(study, SCENE, r, observables=SECTION_OBS) if r else None
+    clr = section_periods(secs, pts[pts["sweep"] == "clearance"])
+    fr = section_periods(secs, pts[pts["sweep"] == "friction"])
+    agree = None
+    if route is not None:
+        agree = agreement(route, secs[secs["sweep"] == "clearance"], SECTION_OBS, r["start"],
+                          tol=ROUTE_TOL)
+    table = pd.concat([route_table("clearance", "joints.A.clearance,joints.B.clearance", clr,
+                                   period_col="period", route=route, agree=agree),
+                       route_table("friction", "joints.A.friction.mu,joints.B.friction.mu", fr,
+                                   period_col="period")], ignore_index=True)
+    return {"route": route, "agree": agree, "table": table, "points": {"clearance": clr,
+                                                                        "friction": fr}}
 
 
 if __name__ == "__main__":

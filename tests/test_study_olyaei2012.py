@@ -36,8 +36,8 @@ def test_quick_writes_pdf_and_data(quick_run):
     # title page(s) + 4 text pages, summary table, 4 sweep figures, tolerance-check table, (the two
     # state figures when a regular or a chaotic state was found), run statistics
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    # + the route to chaos: branch figure, branch table, text; + the attractor census table
-    assert count_pages(pdf) == title_pages + 15 + (2 if states else 0)
+    # + the route to chaos: one page per sweep; + the attractor census table
+    assert count_pages(pdf) == title_pages + 16 + (2 if states else 0)
     cen, cprov = load_table(out / "olyaei2012_census.csv")
     # quick mode: the census at the first friction point (its "always" setting) at least
     assert any(p.startswith("friction:") for p in cen["point"])

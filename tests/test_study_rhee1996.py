@@ -32,10 +32,10 @@ def test_quick_writes_pdf_and_data(quick_run):
     data = pdf.read_bytes()
     assert data.startswith(b"%PDF") and study.MODE.encode() in data
     # title page(s) + intro, findings, case table, sweep table, sections, 2 sweeps, spectra,
-    # convergence, discussion; the route to chaos: branch figure, branch table, text; the
-    # coexisting motions (attractor census) table
+    # convergence, discussion; the route to chaos: one page per sweep; the coexisting motions
+    # (attractor census) table
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
-    assert count_pages(pdf) == title_pages + 14
+    assert count_pages(pdf) == title_pages + 13
     for suffix in ("", "_sections", "_sweeps", "_spectra"):
         assert (out / f"rhee1996{suffix}.parquet").is_file()
     assert (out / "rhee1996_summary.csv").is_file() and (out / "rhee1996_peaks.csv").is_file()
@@ -229,10 +229,54 @@ def test_route_to_chaos_branch_saved_with_its_sentence(quick_run):
     import pandas as pd
     study, out, pdf = quick_run
     br = pd.read_csv(out / "rhee1996_route_branch.csv")
-    assert sorted(br["value"]) == [0.09, 0.1]
+    assert sorted(br["value"]) == [0.09, 0.1] and set(br["sweep"]) == {"friction"}
     assert br["converged"].all() and (br["residual"] <= 1e-5).all()      # 1e3 rtol (1e-8)
-    # the four-bar runs in permanent contact at mu 0.09-0.1: no onset, the memory's multiplier 1
+    # the four-bar runs in permanent contact at mu 0.09-0.1: no onset, the memory's multiplier 1,
+    # which is a continuum, not a stable orbit
     assert (br["onsets_per_period"] == 0).all() and br["continuum"].all()
+    assert (br["stability"] == "neutral continuum").all()
     assert (br["min_Fn"] > 0).all() and (br["max_Fn"] > br["min_Fn"]).all()
     prov = json.loads((out / "rhee1996_route_branch.csv.json").read_text())
-    assert "period-1 orbit" in prov["route_to_chaos"]["route"]
+    assert "period-1 orbit" in prov["route_to_chaos"]["friction"]["route"]
+
+
+def test_route_rows_and_agreement_with_the_brute_force(quick_run):
+    """Issue 40 items 3-4: the route rows of both sweeps, in order, each transition inside its
+    interval; every branch point called stable or neutral lies on the brute-force section at that
+    value, or the row says where and why not."""
+    import pandas as pd
+    from nld.analysis.route import ROUTE_COLUMNS
+    study, out, pdf = quick_run
+    rt = pd.read_csv(out / "rhee1996_route.csv")
+    assert list(rt.columns) == ROUTE_COLUMNS
+    assert set(rt["sweep"]) == {"clearance", "friction"}
+    for name, g in rt.groupby("sweep"):
+        assert list(g["order"]) == list(range(1, len(g) + 1))
+        assert (g["from"] <= g["to"]).all()
+        bf = g[g["source"] == "brute force"]
+        # the brute-force runs tile the sweep's values, each change between its two points
+        assert all(f > t for f, t in zip(list(bf["from"])[1:], list(bf["to"])[:-1]))
+        for _, r in bf.iterrows():
+            if r["transition"] != "range_end":
+                assert r["to"] <= r["at"] - r["at_unc"] + 1e-12 or r["at_unc"] == 0
+    cont = rt[rt["source"] == "continuation"]
+    assert len(cont) >= 1
+    # the branch point at mu = 0.1 is a sweep value: checked against the brute-force section
+    assert cont["agrees"].notna().all()
+    for a in cont["agrees"]:
+        assert a == "yes" or a.startswith(("no at", "n/a", "not checked"))
+        if a.startswith("no at"):
+            assert "(" in a          # the reason is given
+    # and independently: the branch's section point against the stored brute-force section
+    from nld.output.io import load_table
+    sw, _ = load_table(out / "rhee1996_sweeps.parquet")
+    br = pd.read_csv(out / "rhee1996_route_branch.csv")
+    from nld.model.scene import load_scene
+    c = load_scene(study.SCENE).joints["B"].clearance
+    fr = sw[(sw["case"] == "friction") & (sw["rev"] >= 0)] if "case" in sw.columns else sw
+    for _, b in br[br["value"].isin(study.MODE_SETTINGS["frictions"])].iterrows():
+        pts = fr[np.isclose(fr["value"], b["value"])][["B.ex", "B.ey"]].to_numpy()[-8:]
+        d = np.max(np.abs(pts - b[["B.ex", "B.ey"]].to_numpy(float))) / c
+        row = cont[(cont["from"] <= b["value"]) & (cont["to"] >= b["value"])].iloc[0]
+        if b["stability"] != "unstable":
+            assert (d <= study.PERIOD_TOL_ROUTE) == (row["agrees"] == "yes"), (d, row["agrees"])

@@ -7,6 +7,7 @@ points x (1 + 2 + 2 x 2) revolutions, all at rtol 1e-7. About 30-45 s on two cor
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import os
@@ -87,12 +88,18 @@ def test_quick_writes_pdf_parquet_and_summary(quick_run):
     assert b"quick" in data                         # PDF Keywords carry the mode
     # title page(s) + intro, summary table, peak-location table, maxima figure, 3 discussion pages
     # (trends, figure by figure, why), 3 figures x 2 groups, 2 force pages, the phase plot, the chaos
-    # analysis (text, exponent table, sections, 2 bifurcation diagrams, spectra), the run statistics
+    # analysis (text, exponent table, sections, 2 bifurcation diagrams, spectra), the route to chaos
+    # (one page per sweep), the run statistics
     title_pages = Report(out / "x.pdf", study.TITLE, scene=study.SCENE).title_page_count()
     # (a text page longer than 30 wrapped lines continues on a second page: the intro and the
     # figure-by-figure page may, depending on the numbers)
-    assert title_pages + 23 <= count_pages(pdf) <= title_pages + 26
+    assert title_pages + 25 <= count_pages(pdf) <= title_pages + 28
     assert (out / "zhang2013_excavator.parquet").is_file()
+    # the route as data: both sweeps, in order
+    route = pd.read_csv(out / "zhang2013_excavator_route.csv")
+    assert set(route["sweep"]) == {"clearance", "friction"}
+    for _, g in route.groupby("sweep"):
+        assert list(g["order"]) == list(range(1, len(g) + 1)) and (g["from"] <= g["to"]).all()
     assert (out / "zhang2013_excavator_summary.csv").is_file()
 
 
@@ -186,7 +193,9 @@ def test_chaos_analysis_table_matches_stored_sections(quick_run):
     secs, _ = load_table(out / "zhang2013_excavator_sections.parquet")
     an = study.ANALYSIS_QUICK
     assert prov["analysis"]["rtol"] == an["rtol"]
-    assert sorted(pts.loc[pts["sweep"] == "clearance", "value"]) == sorted(an["clearances"])
+    # the route's points below the committed sweep are added to it (docs/route.md)
+    assert sorted(pts.loc[pts["sweep"] == "clearance", "value"]) == sorted(
+        set(an["clearances"]) | set(study.ROUTE_CLEARANCES["quick"]))
     assert sorted(pts.loc[pts["sweep"] == "friction", "value"]) == sorted(an["frictions"])
     # every paper case is a point of a sweep, with a finished section and a finite exponent
     for name, (sweep, value) in study.CASE_POINTS.items():
