@@ -61,14 +61,16 @@ __all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation
            "CURVE_KINDS", "CURVE_END_REASONS", "SPECIAL_KINDS", "FD_U", "FD_PARAM"]
 
 CURVE_KINDS = ("period_doubling", "fold")
-# why a curve ends in one direction from its start point: param2's range end reached; a
+# why a curve ends in one direction from its start point: param2's range end reached; the
+# curve turned back in param2 (a cusp, a turning point) and reached the range's other end; a
 # parameter left its domain (a clearance <= 0, a friction coefficient < 0, a frequency <= 0 ...);
 # the corrector failed at the shortest step; max_points used
-CURVE_END_REASONS = ("range_end", "domain", "newton_failure", "step_limit")
-SPECIAL_KINDS = ("turning_point", "fold_flip", "resonance_1_1", "resonance_1_2",
+CURVE_END_REASONS = ("range_end", "turned_back", "domain", "newton_failure", "step_limit")
+SPECIAL_KINDS = ("turning_point", "cusp", "fold_flip", "resonance_1_1", "resonance_1_2",
                  "contact_change")
 FD_U = 1e-5          # forward-difference step in the scaled shooting unknowns
 FD_PARAM = 1e-2      # forward-difference step in a parameter, of its arclength unit sigma
+MAX_MOVE = 2.0       # a corrector farther than this many steps from its predictor diverged
 
 
 @dataclass
@@ -290,10 +292,14 @@ def _critical_mu(ext: _Extended, o: PeriodicOrbit):
     return mu[k], max(e, o.residual * max(1.0, abs(mu[k]))), np.delete(mu, k)
 
 
-def _corrector(ext, V_pred, Z, t_vec, fix2, tol, gtol, max_iter=10, info=None):
+def _corrector(ext, V_pred, Z, t_vec, fix2, tol, gtol, max_iter=10, info=None,
+               max_move=math.inf):
     """Newton on [G; g; t.(V - V_pred)] (or lam2 fixed at fix2 / sigma2). Returns (V, Z, its,
-    D) or None (info: why)."""
+    D) or None (info: why). An iterate farther than ``max_move`` from V_pred (the Newton
+    diverging: a forcing frequency heading to 0 makes one period endless) counts as a
+    failure."""
     info = {} if info is None else info
+    info.pop("domain", None)
     V = V_pred.copy()
     Z = [np.array(z) for z in Z]
     for it in range(1, max_iter + 1):
@@ -328,6 +334,10 @@ def _corrector(ext, V_pred, Z, t_vec, fix2, tol, gtol, max_iter=10, info=None):
         if ext.frozen.size:
             dV[ext.frozen] = 0.0
         V = V + dV
+        if float(np.linalg.norm(V - V_pred)) > max_move:
+            info["why"] = (f"the corrector diverged (moved {np.linalg.norm(V - V_pred):.3g} "
+                           f"from the predictor, more than {max_move:.3g})")
+            return None
         if ext.multiple:
             Z = [steps[(i - 1) % ext.p].z for i in range(ext.p)]
     info["why"] = f"no convergence in {max_iter} iterations"
@@ -367,6 +377,10 @@ def _point(ext, V, Z, D, tol):
     Vh[:nU] += FD_PARAM * dU
     Vh[nU] += FD_PARAM
     tol1 = math.nan
+    if ext.kind == "fold":
+        # at a fold the multiplier's slope along the one-parameter branch is infinite (param1 is
+        # quadratic in the distance): no slope-based tolerance
+        return o, l1, l2, g, abs(mu_c - target), tol1
     try:
         _, _, Ah, _, _, mh = ext.evaluate(Vh, [np.array(z) for z in Z])
         Ms = Ah - ext.sign * np.eye(ext.keep.size)
@@ -493,18 +507,18 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
                 if cross and abs(t[-1]) > 1e-12:
                     x = min(cross, key=lambda y: abs(y - l2))
                     hl = (x / sigma2 - V[-1]) / t[-1]
-                    ok = _corrector(ext, V + hl * t, Z, t, x, tol, gtol, info=info)
+                    ok = _corrector(ext, V + hl * t, Z, t, x, tol, gtol, info=info,
+                                    max_move=MAX_MOVE * max(abs(hl), h_min))
                     if ok is not None:
                         landed = x
                         break
                 else:
-                    ok = _corrector(ext, V_pred, Z, t, None, tol, gtol, info=info)
+                    ok = _corrector(ext, V_pred, Z, t, None, tol, gtol, info=info,
+                                    max_move=MAX_MOVE * h)
                     if ok is not None and not (lo - eps <= ok[0][-1] * sigma2 <= hi + eps):
                         ok = None
                     if ok is not None:
                         break
-                if info.get("domain"):
-                    break
                 h *= 0.5
             if ok is None:
                 reason = "domain" if info.get("domain") else "newton_failure"
@@ -526,7 +540,7 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
             if landed is not None and abs(landed - end2) <= eps:
                 end = CurveEnd(direction, rec[1], landed, "range_end", "the range's end")
             elif landed is not None and (abs(landed - lo) <= eps or abs(landed - hi) <= eps):
-                end = CurveEnd(direction, rec[1], landed, "range_end",
+                end = CurveEnd(direction, rec[1], landed, "turned_back",
                                "the range's other end, after the curve turned back in "
                                f"{fam2.label}")
             if its <= 3:
@@ -565,6 +579,17 @@ def _special(ext, recs, label1, label2):
         # tangents are oriented along each direction's travel; re-orient b along a
         if float(ta @ tb) < 0:
             tb = -tb
+        qa, qb = ta[-2:] / np.linalg.norm(ta[-2:]), tb[-2:] / np.linalg.norm(tb[-2:])
+        if kind == "fold" and float(qa @ qb) < 0 and ta[-1] * tb[-1] < 0 or \
+                kind == "fold" and float(qa @ qb) < 0 and ta[-2] * tb[-2] < 0:
+            # the curve's projection on the parameter plane reverses: a cusp (two fold curves
+            # meet tangentially; Kuznetsov 2004, sec. 8.2 and 9.5)
+            w = 0.5
+            out.append(SpecialPoint("cusp", ra[1] + w * (rb[1] - ra[1]),
+                                    ra[2] + w * (rb[2] - ra[2]), (i, i + 1),
+                                    "the fold curve's projection on the parameter plane "
+                                    "reverses (the two folds of the branch meet)"))
+            continue
         for k, lab in ((-2, label1), (-1, label2)):
             if ta[k] * tb[k] < 0:
                 w = ta[k] / (ta[k] - tb[k])
