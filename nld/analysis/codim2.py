@@ -196,6 +196,7 @@ class _Extended:
         self.keep = None            # state indices of the reduced monodromy
         self.frozen = np.zeros(0, dtype=np.int64)
         self.integrations = 0
+        self.s0 = None
 
     def map_at(self, l1, l2):
         try:
@@ -241,6 +242,12 @@ class _Extended:
         l1, l2 = V[-2] * self.sigma[0], V[-1] * self.sigma[1]
         m = self.map_at(l1, l2)
         sh = _Shooting(m, self.p, self.multiple)
+        if self.s0 is None:
+            self.s0 = np.asarray(sh.s, dtype=float).copy()
+        # fixed scales: a scene's scales follow its clearance (slider.s in units of the
+        # clearance), and unknowns scaled at each parameter value would move the orbit by the
+        # rescaling alone (a clearance change of 1e-4 gave a scaled residual of 6)
+        sh.s = self.s0
         X = V[:-2].reshape(self.npts, m.n) * sh.s
         r, J, steps = sh.evaluate(X, Z, True)
         self.integrations += self.p
@@ -381,11 +388,11 @@ def _point(ext, V, Z, D, r, g_V, tol):
     singular vectors as borders is -+(mu -+ 1) to first order)."""
     l1, l2 = V[-2] * ext.sigma[0], V[-1] * ext.sigma[1]
     m = ext.map_at(l1, l2)
-    X = V[:-2].reshape(ext.npts, m.n) * np.asarray(m.scales, dtype=float)
+    X = V[:-2].reshape(ext.npts, m.n) * ext.s0
     o = periodic_orbit(m, ext.p, X, z=Z[0], tol=tol, check=True, max_iter=3,
                        shooting="multiple" if ext.multiple else "single")
     ext.integrations += 2 * ext.p
-    A = ext.reduced(o.monodromy, np.asarray(m.scales, dtype=float)) \
+    A = ext.reduced(o.monodromy, ext.s0) \
         + ext.sign * np.eye(ext.keep.size)
     g = ext.test(A)
     ext.set_borders(A)
@@ -427,7 +434,7 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
             param2 (default 1); adaptive (x1.5 after a corrector of <= 3 iterations, /2 after a
             failure down to step/1000), at most 4 steps.
     scale1: param1's arclength unit (default 0.02 |bif.value|, 0.02 when it is 0); param2's is
-            0.02 of the range. The shooting unknowns are in the map's scales.
+            0.02 of the range. The shooting unknowns are in the map's scales at the start (fixed along the curve).
     tol:    the shooting residual's tolerance (default the orbit's); gtol: the test function's
             (default tol).
     Returns a :class:`BifurcationCurve`. Bad input raises InputError before any integration.
@@ -472,7 +479,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
     t_start = time.perf_counter()
     ext = _Extended(system, param, param2, bif.kind, o0, sigma1, sigma2)
     m0 = ext.map_at(bif.value, v20)
-    U0 = (np.asarray(o0.points[:ext.npts]) / np.asarray(m0.scales, dtype=float)).ravel()
+    ext.s0 = np.asarray(m0.scales, dtype=float).copy()
+    U0 = (np.asarray(o0.points[:ext.npts]) / ext.s0).ravel()
     V0 = np.concatenate([U0, [bif.value / sigma1, v20 / sigma2]])
     Z0 = [np.array(z) for z in o0.z[:ext.npts]]
     info = {}
