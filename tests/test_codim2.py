@@ -125,3 +125,33 @@ def test_bad_input_is_refused_before_any_integration(monkeypatch, doubling_curve
         continue_bifurcation(S, pd, "omega", (1.1, 1.3), param="gamma", stops=(1.4,))
     with pytest.raises(InputError, match="param = 'kappa'"):
         continue_bifurcation(S, pd, "kappa", (1.1, 1.3), param="gamma")
+
+
+@pytest.mark.slow
+def test_slider_crank_doubling_at_mu_0_1_lies_on_the_curve_from_another_mu():
+    # slider_crank_olyaei (5000 rpm): the permanent-contact period-1 orbit reached from c = 0.28 mm
+    # regains stability through -1 near c = 0.28613 mm (tests/test_continuation.py). Its doubling
+    # in the clearance is located at mu = 0.1 and, from the same orbit (same memory: the history
+    # of a continuum orbit sets its doubling, docs/orbits.md) continued to mu = 0.1012, there too;
+    # the curve followed in mu from the second lands at mu = 0.1 on the first.
+    from nld.systems import SceneSystem
+    clear, fric = "joints.B.clearance", "joints.B.friction.mu"
+    values = [0.28e-3, 0.2835e-3, 0.287e-3, 0.29e-3]
+    S = SceneSystem("slider_crank_olyaei", [f"{clear}=0.28e-3"])
+    o1 = periodic_orbit(S, 1, transient=100, rtol=1e-10)
+    assert o1.converged and o1.continuum
+    pd_a = [b for b in continue_orbit(S, o1, clear, values, locate_tol=2e-8,
+                                      criticality=False).bifurcations
+            if b.kind == "period_doubling"][0]
+    br_mu = continue_orbit(S, o1, fric, [0.1, 0.1012], locate=False)
+    S2 = SceneSystem("slider_crank_olyaei", [f"{clear}=0.28e-3", f"{fric}=0.1012"])
+    pd_b = [b for b in continue_orbit(S2, br_mu.orbits[-1], clear, values, locate_tol=2e-8,
+                                      criticality=False).bifurcations
+            if b.kind == "period_doubling"][0]
+    assert pd_a.located and pd_b.located
+    c = continue_bifurcation(S2, pd_b, fric, (0.0995, 0.1012), param=clear, stops=(0.1,))
+    i = c.values2.index(0.1)
+    assert c.landed[i] and c.orbits[i].continuum
+    assert abs(c.values1[i] - pd_a.value) <= pd_a.tolerance + pd_b.tolerance + c.tolerance1[i]
+    # the two located doublings are farther apart than that: the curve carried the difference
+    assert abs(pd_b.value - pd_a.value) > 3 * (pd_a.tolerance + pd_b.tolerance)

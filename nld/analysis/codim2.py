@@ -491,7 +491,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
                          f"{info.get('residual', math.nan):.3g}, condition "
                          f"{info.get('condition', math.nan):.3g})")
     V, Z, _, D, r, gV = first
-    start = _point(ext, V, Z, D, r, gV, tol) + (V, Z, D)
+    start = _point(ext, V, Z, D, r, gV, tol)
+    start = start[:2] + (v20,) + start[3:] + (V, Z, D)
     t0 = _tangent(D)
     eps = 1e-12 * max(abs(lo), abs(hi), sigma2)
     targets = sorted(set([lo, hi] + stops))
@@ -549,6 +550,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
             except _Domain as e:
                 end = CurveEnd(direction, V[-2] * sigma1, V[-1] * sigma2, "domain", str(e))
                 break
+            if landed is not None:
+                rec = rec[:2] + (landed,) + rec[3:]      # exactly the value asked for
             t = _tangent(D, t)
             pts.append(rec + (landed is not None, t.copy()))
             if progress is not None:
