@@ -437,6 +437,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
             0.02 of the range. The shooting unknowns are in the map's scales at the start (fixed along the curve).
     tol:    the shooting residual's tolerance (default the orbit's); gtol: the test function's
             (default tol).
+    progress: optional callable (points in this direction, max_points, value1, value2) after
+            each curve point.
     Returns a :class:`BifurcationCurve`. Bad input raises InputError before any integration.
     """
     if not isinstance(bif, Bifurcation):
