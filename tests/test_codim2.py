@@ -7,12 +7,13 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from nld.analysis.codim2 import continue_bifurcation
 from nld.analysis.continuation import Bifurcation, continue_orbit
 from nld.analysis.orbits import periodic_orbit
 from nld.errors import InputError
-from nld.systems import duffing
+from nld.systems import DiscreteMap, duffing
 
 from test_continuation_robust import _harmonic_balance_folds
 
@@ -105,6 +106,41 @@ def test_fold_curves_meet_at_their_cusp_and_agree_with_one_parameter_folds():
     assert max(c.distance) < 1e-6
 
 
+@njit(cache=False)
+def _damped_delayed_logistic(x, p, out):
+    out[0] = p[0] * x[0] * (1.0 - x[1]) - p[1] * x[0]
+    out[1] = x[0]
+
+
+@njit(cache=False)
+def _damped_delayed_logistic_jac(x, p, J):
+    J[0, 0] = p[0] * (1.0 - x[1]) - p[1]
+    J[0, 1] = -p[0] * x[0]
+    J[1, 0] = 1.0
+    J[1, 1] = 0.0
+
+
+def test_neimark_sacker_curve_of_a_map_against_its_closed_form():
+    # x' = r x (1 - y) - a x, y' = x: fixed point x* = y* = 1 - (1 + a) / r, Jacobian
+    # [[1, -r x*], [1, 0]]: det = r - 1 - a, trace 1, so the pair crosses |mu| = 1 on the line
+    # r = 2 + a, at the angle pi / 3 (2 cos(theta) = 1). The map's exact Jacobian is given: with
+    # the default central differences the multipliers are good to ~1e-10 only (their stated
+    # uncertainty for a map is 0) and the curve's points were 1e-10 off the line
+    M = DiscreteMap(_damped_delayed_logistic, [0.4, 0.4], [1.8, 0.1], "damped delayed logistic",
+                    jacobian=_damped_delayed_logistic_jac, state_names=["x", "x_prev"])
+    o = periodic_orbit(M, 1, [0.4, 0.4])
+    br = continue_orbit(M, o, 0, range=(1.8, 2.4), step=0.02, criticality=False)
+    ns = [b for b in br.bifurcations if b.kind == "neimark_sacker"]
+    assert len(ns) == 1
+    c = continue_bifurcation(M, ns[0], 1, (0.0, 0.3), param=0, stops=(0.2,))
+    assert c.completed and len(c.values1) > 5
+    for r, a, tol1, o in zip(c.values1, c.values2, c.tolerance1, c.orbits):
+        assert abs(r - (2.0 + a)) <= tol1 + 1e-12
+        mu = o.multipliers[0]
+        assert abs(abs(mu) - 1.0) < 1e-9
+        assert abs(abs(np.angle(mu)) - math.pi / 3) < 1e-9
+
+
 def test_bad_input_is_refused_before_any_integration(monkeypatch, doubling_curve):
     pd, _ = doubling_curve
     S = duffing(gamma=pd.value, omega=1.2)
@@ -114,8 +150,8 @@ def test_bad_input_is_refused_before_any_integration(monkeypatch, doubling_curve
         raise AssertionError("integrated before checking the input")
 
     monkeypatch.setattr(c2._Extended, "evaluate", boom)
-    ns = Bifurcation("neimark_sacker", pd.value, 1e-6, None, pd.orbit, "")
-    with pytest.raises(InputError, match="bif.kind = 'neimark_sacker'"):
+    ns = Bifurcation("grazing", pd.value, 1e-6, None, pd.orbit, "")
+    with pytest.raises(InputError, match="bif.kind = 'grazing'"):
         continue_bifurcation(S, ns, "omega", (1.1, 1.3), param="gamma")
     with pytest.raises(InputError, match="do not contain"):
         continue_bifurcation(S, pd, "omega", (1.3, 1.4), param="gamma")

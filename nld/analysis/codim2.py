@@ -1,8 +1,8 @@
-"""Curves of period doublings and folds of periodic orbits in two parameters.
+"""Curves of period doublings, folds and Neimark-Sacker points of periodic orbits in two parameters.
 
-:func:`continue_bifurcation` takes a period doubling or a fold located by one-parameter
-continuation (:class:`nld.analysis.continuation.Bifurcation` from ``continue_orbit``) and follows
-it as a second parameter changes, by pseudo-arclength continuation (Keller 1977) of the
+:func:`continue_bifurcation` takes a period doubling, a fold or a Neimark-Sacker point located by
+one-parameter continuation (:class:`nld.analysis.continuation.Bifurcation` from ``continue_orbit``)
+and follows it as a second parameter changes, by pseudo-arclength continuation (Keller 1977) of the
 **extended system** (Kuznetsov 2004, sec. 10.3.2-10.3.3; Govaerts 2000, ch. 4):
 
     unknowns  V = (U, lam1 / sigma1, lam2 / sigma2)     U the scaled shooting points
@@ -17,8 +17,10 @@ M the orbit's monodromy (p-period map Jacobian, in the shooting's scaled variabl
     [ A    b ] [v]   [0]
     [ c^T  0 ] [g] = [1]
 
-g is a smooth function that vanishes exactly where A is singular (a multiplier -1 or +1), with b
-and c the left and right singular vectors of A's smallest singular value at the last curve point
+(A = C2(M) - I for Neimark-Sacker: C2 the second compound / bialternate matrix, eigenvalues
+mu_i mu_j, i < j; Kuznetsov 2004, sec. 10.3.3), and g is a smooth function that vanishes
+exactly where A is singular (a multiplier -1 or +1; a pair with product 1), with b and c the
+left and right singular vectors of A's smallest singular value at the last curve point
 (updated after every point, oriented by continuity). A contact orbit's memory entries that are
 never reset on the orbit (permanent contact or none) are neutral directions with multiplier
 exactly 1 (docs/orbits.md): their rows and columns are removed from M before the test (and held
@@ -60,7 +62,7 @@ from nld.systems.derived import never_reset
 __all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation",
            "CURVE_KINDS", "CURVE_END_REASONS", "SPECIAL_KINDS", "FD_U", "FD_PARAM"]
 
-CURVE_KINDS = ("period_doubling", "fold")
+CURVE_KINDS = ("period_doubling", "fold", "neimark_sacker")
 # why a curve ends in one direction from its start point: param2's range end reached; the
 # curve turned back in param2 (a cusp, a turning point) and reached the range's other end; a
 # parameter left its domain (a clearance <= 0, a friction coefficient < 0, a frequency <= 0 ...);
@@ -212,6 +214,26 @@ class _Extended:
         except (InputError, SceneError) as e:
             raise _Domain(str(e)) from None
 
+    def matrix(self, Mr):
+        """A of the bordered test: M + I (doubling), M - I (fold), or for Neimark-Sacker
+        C2(M) - I with C2 the second compound (bialternate) matrix, eigenvalues mu_i mu_j
+        (i < j): singular where a pair has mu_i mu_j = 1 (Kuznetsov 2004, sec. 10.3.3; Govaerts
+        2000, ch. 4; also at a neutral saddle, a real pair with product 1: said in docs)."""
+        n = Mr.shape[0]
+        if self.kind != "neimark_sacker":
+            return Mr + self.sign * np.eye(n)
+        pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+        C = np.empty((len(pairs), len(pairs)))
+        for a, (i, j) in enumerate(pairs):
+            for b, (k, l) in enumerate(pairs):
+                C[a, b] = Mr[i, k] * Mr[j, l] - Mr[i, l] * Mr[j, k]
+        return C - np.eye(len(pairs))
+
+    def distance(self, mu_c) -> float:
+        if self.kind == "neimark_sacker":
+            return abs(abs(mu_c) - 1.0)
+        return abs(mu_c - (-1.0 if self.kind == "period_doubling" else 1.0))
+
     def reduced(self, M, s):
         Ms = M * s[None, :] / s[:, None]
         k = self.keep
@@ -259,7 +281,7 @@ class _Extended:
             self.keep = np.setdiff1d(np.arange(m.n), fz)
             self.frozen = np.array([k * m.n + i for k in range(self.npts) for i in fz],
                                    dtype=np.int64)
-        A = self.reduced(M, sh.s) + self.sign * np.eye(self.keep.size)
+        A = self.matrix(self.reduced(M, sh.s))
         if self.b is None:
             self.set_borders(A)
         g = self.test(A)
@@ -293,8 +315,12 @@ def _critical_mu(ext: _Extended, o: PeriodicOrbit):
     if o.continuum and mu.size:
         k = int(np.argmin(np.abs(mu - 1.0)))
         mu, err = np.delete(mu, k), (np.delete(err, k) if err.size == o.multipliers.size else err)
-    target = -1.0 if ext.kind == "period_doubling" else 1.0
-    k = int(np.argmin(np.abs(mu - target)))
+    if ext.kind == "neimark_sacker":
+        # the pair nearest the unit circle (its member with Im > 0, where there is one)
+        score = np.abs(np.abs(mu) - 1.0) + np.where(mu.imag >= 0, 0.0, 1e-12)
+        k = int(np.argmin(score))
+    else:
+        k = int(np.argmin(np.abs(mu - (-1.0 if ext.kind == "period_doubling" else 1.0))))
     e = float(err[k]) if err.size > k else 0.0
     return mu[k], max(e, o.residual * max(1.0, abs(mu[k]))), np.delete(mu, k)
 
@@ -382,8 +408,9 @@ def _tangent(D, prev=None):
 
 def _point(ext, V, Z, D, r, g_V, tol):
     """The polished PeriodicOrbit at V and the point's record. tolerance1: how far param1 may
-    be from the curve at this param2: the next Newton step's param1 component (param2 fixed)
-    from the residuals (r, g) left at V, plus the multipliers' uncertainty u carried through
+    be from the curve at this param2: twice the next Newton step's param1 component (param2
+    fixed) from the residuals (r, g) left at V (linear convergence at a rate <= 1/2), plus the
+    multipliers' uncertainty u carried through
     the test function (|dg/dmu| taken as 1: the bordered g of a simple multiplier with the
     singular vectors as borders is -+(mu -+ 1) to first order)."""
     l1, l2 = V[-2] * ext.sigma[0], V[-1] * ext.sigma[1]
@@ -392,21 +419,21 @@ def _point(ext, V, Z, D, r, g_V, tol):
     o = periodic_orbit(m, ext.p, X, z=Z[0], tol=tol, check=True, max_iter=3,
                        shooting="multiple" if ext.multiple else "single")
     ext.integrations += 2 * ext.p
-    A = ext.reduced(o.monodromy, ext.s0) \
-        + ext.sign * np.eye(ext.keep.size)
+    A = ext.matrix(ext.reduced(o.monodromy, ext.s0))
     g = ext.test(A)
     ext.set_borders(A)
     mu_c, u, _ = _critical_mu(ext, o)
-    target = -1.0 if ext.kind == "period_doubling" else 1.0
     nU = V.size - 2
     E = np.vstack([D, np.eye(1, V.size, V.size - 1)])
     try:
         step_r = np.linalg.lstsq(E, -np.concatenate([r, [g_V, 0.0]]), rcond=1e-12)[0][nU]
         step_u = np.linalg.lstsq(E, np.eye(1, nU + 2, nU)[0], rcond=1e-12)[0][nU]
-        tol1 = (abs(step_r) + u * abs(step_u)) * ext.sigma[0]
+        # the Jacobian's finite-difference columns make the corrector converge linearly: with a
+        # rate <= 1/2 the distance left is <= twice the next step
+        tol1 = (2.0 * abs(step_r) + u * abs(step_u)) * ext.sigma[0]
     except np.linalg.LinAlgError:
         tol1 = math.nan
-    return o, l1, l2, g, abs(mu_c - target), tol1
+    return o, l1, l2, g, ext.distance(mu_c), tol1
 
 
 def _others(ext, o):
@@ -422,7 +449,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
                          step: float | None = None, scale1: float | None = None,
                          max_points: int = 100, tol: float | None = None,
                          gtol: float | None = None, progress=None) -> BifurcationCurve:
-    """Follow a located period doubling or fold ``bif`` (of a branch continued in ``param``) in
+    """Follow a located period doubling, fold or Neimark-Sacker point ``bif`` (of a branch
+    continued in ``param``) in
     ``param2`` over ``range2`` = (a, b), which must contain the system's value of param2.
 
     system: the system of the branch (its value of ``param`` is replaced by ``bif.value``).
@@ -434,7 +462,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
             param2 (default 1); adaptive (x1.5 after a corrector of <= 3 iterations, /2 after a
             failure down to step/1000), at most 4 steps.
     scale1: param1's arclength unit (default 0.02 |bif.value|, 0.02 when it is 0); param2's is
-            0.02 of the range. The shooting unknowns are in the map's scales at the start (fixed along the curve).
+            0.02 of the range. The shooting unknowns are in the map's scales at the start
+            (fixed along the curve).
     tol:    the shooting residual's tolerance (default the orbit's); gtol: the test function's
             (default tol).
     progress: optional callable (points in this direction, max_points, value1, value2) after
@@ -619,7 +648,8 @@ def _special(ext, recs, label1, label2):
                                         f"the curve turns back in {lab}"))
         fa, pa = _others(ext, ra[0])
         fb, pb = _others(ext, rb[0])
-        checks = [("fold_flip", pa, pb, "a second multiplier through -1 on a fold curve"),
+        checks = [] if kind == "neimark_sacker" else \
+            [("fold_flip", pa, pb, "a second multiplier through -1 on a fold curve"),
                   ("resonance_1_1", fa, fb, "a second multiplier through +1 on a fold curve")] \
             if kind == "fold" else \
             [("fold_flip", fa, fb, "a multiplier through +1 on a period-doubling curve"),
