@@ -333,7 +333,8 @@ _LEGEND_LOCS = ("upper right", "upper left", "lower left", "lower right", "cente
                 "center left", "upper center", "lower center", "center")
 
 
-def _renderer(fig):
+def renderer(fig):
+    """matplotlib's Agg renderer of ``fig`` (text extents are measured with it)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)
@@ -342,10 +343,10 @@ def _renderer(fig):
 
 def fit_texts(fig) -> bool:
     """Split panel titles, axis labels and the figure title that are longer than their panel
-    (the page) into lines at sensible points (``report.split_value``); legend entries wider than
+    (the page) into lines at sensible points (``nld.output.text.split_value``); legend entries wider than
     their panel too. True when a text was changed (the layout is then to be redone)."""
-    from nld.output.report import split_value
-    r = _renderer(fig)
+    from nld.output.text import split_value
+    r = renderer(fig)
     changed = False
 
     def fit(t, room_px, vertical=False):
@@ -436,7 +437,7 @@ def place_legends(fig) -> list:
     a corner of the panel where it covers none. Legends with no free corner are taken off their
     panel: returned as ``[(handle, label), ...]`` for one legend of the figure, under the panels
     (:func:`figure_legend`)."""
-    r = _renderer(fig)
+    r = renderer(fig)
     px_per_pt = fig.dpi / 72.0
     out = []
     for ax in fig.axes:
@@ -484,7 +485,7 @@ def figure_legend(fig, entries, bottom: float, size: float = 7.5):
     old = getattr(fig, "_nld_legend", None)
     if old is not None:
         old.remove()
-    r = _renderer(fig)
+    r = renderer(fig)
     ncol = len(labels)
     while True:
         leg = fig.legend(handles, labels, loc="lower center", bbox_to_anchor=(0.5, bottom), ncols=max(ncol, 1),

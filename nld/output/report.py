@@ -36,6 +36,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.output.text import split_value  # noqa: F401 (re-exported: report.split_value)
+
 __all__ = ["PAGE_SIZE", "STYLE", "Report", "save_study_data", "source_date_epoch",
            "estimator_text", "study_started", "study_start"]
 
@@ -170,32 +172,6 @@ def _new_figure(title: str | None = None):
         if title:
             fig.suptitle(title, fontsize=13, fontweight="bold", x=_MARGIN, y=0.975, ha="left")
     return fig
-
-
-_BREAK = None
-
-
-def split_value(text: str, width: int) -> list[str]:
-    """``text`` in lines of at most ``width`` characters where it can be, broken only at sensible
-    points: after a space, ``_``, ``/``, ``,``, ``;`` or a ``.`` between lower-case letters (module
-    paths, file names), never inside a word or a number; a token longer than ``width`` stays whole.
-    Line breaks already in the text are kept."""
-    import re
-    global _BREAK
-    if _BREAK is None:
-        _BREAK = re.compile(r"(?<=[ _/,;])|(?<=[a-z]\.)(?=[a-z_])")
-    out: list[str] = []
-    for line in str(text).split("\n"):
-        tokens = [t for t in _BREAK.split(line) if t]
-        cur = ""
-        for t in tokens:
-            if cur and len((cur + t).rstrip()) > width:
-                out.append(cur.rstrip())
-                cur = t.lstrip() if t.strip() else ""
-            else:
-                cur += t
-        out.append(cur.rstrip())
-    return out
 
 
 _TABLE_BASE = 8.5      # table font size [pt] when the columns fit
@@ -374,9 +350,9 @@ class Report:
             top_ = top
             sup = getattr(fig, "_suptitle", None)
             if sup is not None and sup.get_text():       # a page title of two lines: panels below it
-                from nld.output.plots import _renderer
+                from nld.output.plots import renderer
                 sup.set_in_layout(False)
-                top_ = min(top, sup.get_window_extent(_renderer(fig)).y0 / fig.bbox.height - 0.012)
+                top_ = min(top, sup.get_window_extent(renderer(fig)).y0 / fig.bbox.height - 0.012)
             if engine is None:
                 import warnings
                 with warnings.catch_warnings():
