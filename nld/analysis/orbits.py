@@ -21,9 +21,16 @@ map): the accuracy at which the integration can reproduce a period. A Newton tha
 there says so (``converged`` False, ``message``) and returns the best iterate.
 
 Floquet multipliers: the eigenvalues of the orbit's monodromy M, with an uncertainty from a
-second evaluation at 10 rtol (|mu(rtol) - mu(10 rtol)|, an upper estimate of the error at rtol);
-the orbit is called stable when max |mu| + uncertainty < 1, unstable when max |mu| -
-uncertainty > 1, undecided otherwise. The determinant of M is checked against the Liouville
+second evaluation at 10 rtol (|mu(rtol) - mu(10 rtol)|, an upper estimate of the error at rtol).
+Stability (``PeriodicOrbit.stability``) is decided by the multipliers that are not the contact
+memory's neutral one: an orbit on which a memory entry is never reset (permanent contact or no
+contact) has a multiplier 1 in the memory direction (one of a continuum of orbits: ``memory_neutral``)
+which is left out and said so. With mu_max the largest remaining |mu| and u its uncertainty
+(``multiplier_uncertainty``: the largest |mu(rtol) - mu(10 rtol)| of the deciding multipliers, at
+least the scaled residual times max(1, mu_max), the part of the error a point off the orbit by the
+residual leaves; for a map given exactly only that floor): "stable" when mu_max + u < 1, "unstable"
+when mu_max - u > 1, "neutral" otherwise (and for a continuum with nothing else deciding); never
+"stable" within the uncertainty of 1. The determinant of M is checked against the Liouville
 formula ln|det M| = int tr(df/dy) dt + sum ln|det S| (S the saltation matrices) where no memory is
 reset (docs/orbits.md). :func:`find_orbits` lists the distinct orbits of periods 1..P from close
 returns of the section (Auerbach et al. 1987; So et al. 1996) refined by Newton; for a map also
@@ -75,13 +82,18 @@ class PeriodicOrbit:
                  value it had to reach; ``converged`` whether it did; ``iterations`` Newton steps.
     multipliers: Floquet multipliers (complex, by decreasing modulus) and ``multiplier_error``
                  (|mu(rtol) - mu(10 rtol)|; 0 for a map given exactly); ``monodromy`` (N, N).
-    stable:      True (max |mu| + err < 1), False (max |mu| - err > 1) or None (undecided).
+    stable:      True only when ``stability`` is "stable", False when "unstable", else None.
+    multiplier_uncertainty: the uncertainty u of the largest deciding |mu| (module docstring:
+                 from the second evaluation at 10 rtol, at least residual x max(1, |mu|)).
+    return_times: the flow time of each of the p map steps (s; the forcing period, or a Poincaré
+                 map's return times; empty for a DiscreteMap); ``time_period`` their sum.
     onsets:      contact onsets per contact event over the whole period (a scene: per clearance
                  joint); ``onsets_per_period`` their sum; ``min_approach_speed`` the smallest
                  normal approach speed at an onset on the orbit (m/s; inf: no onset).
     continuum:   True when a memory entry is never reset on the orbit (permanent contact or no
                  contact): it is then a neutral direction (multiplier 1) and the orbit one of a
-                 continuum, selected by the history (docs/orbits.md, "Memory state").
+                 continuum, selected by the history (docs/orbits.md, "Memory state");
+                 ``memory_neutral`` is the same.
     det_check:   {"log_det_M", "liouville", "difference"} or None where not applicable.
     """
     period: int
@@ -105,21 +117,76 @@ class PeriodicOrbit:
     system_name: str
     settings: dict = field(default_factory=dict)
     map: object = field(default=None, repr=False)
+    multiplier_uncertainty: float = math.nan
+    return_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    n_memory_neutral: int = 0
 
     @property
     def max_abs_multiplier(self) -> float:
         return float(np.max(np.abs(self.multipliers))) if self.multipliers.size else math.nan
 
+    @property
+    def memory_neutral(self) -> bool:
+        """The orbit has the contact memory's neutral multiplier (1, a memory entry never reset:
+        one of a continuum of orbits); stability is then decided by the other multipliers."""
+        return bool(self.continuum)
+
+    @property
+    def deciding_multipliers(self) -> np.ndarray:
+        """The multipliers that decide stability: the memory's neutral ones (those nearest 1,
+        one per never-reset memory entry) left out."""
+        return _deciding(self.multipliers, self.n_memory_neutral)
+
+    @property
+    def stability(self) -> str:
+        """"stable", "unstable" or "neutral" (module docstring): decided by the multipliers other
+        than the contact memory's neutral one; "neutral" when the largest of them is within
+        ``multiplier_uncertainty`` of 1 in modulus, or nothing else decides. "unconverged" for an
+        orbit whose Newton did not converge (no orbit, no stability)."""
+        if not self.converged:
+            return "unconverged"
+        return {True: "stable", False: "unstable", None: "neutral"}[self.stable]
+
+    @property
+    def stability_text(self) -> str:
+        """The stability in words, with the memory direction named where it is neutral."""
+        st = self.stability
+        if self.memory_neutral and st != "unconverged":
+            return (f"{st} (neutral in the contact memory's direction, multiplier 1: one of a "
+                    f"continuum; stability from the other multipliers)")
+        return st
+
+    @property
+    def time_period(self) -> float:
+        """The orbit's period in time (s): the sum of its map steps' flow times (p forcing
+        periods; a Poincaré map's return times); nan for a DiscreteMap."""
+        return float(np.sum(self.return_times)) if len(self.return_times) else math.nan
+
     def trajectory(self, n_per_period: int = 200):
-        """The flow's states along the whole orbit: (t (s) from the first point, Y)."""
+        """The flow's states along the whole orbit: (t (s) from the first point, Y), n_per_period
+        samples per map step (a stroboscopic map's period, or a Poincaré map's return time)."""
         m = self.map
-        if not isinstance(m, StroboscopicMap):
-            raise InputError("trajectory(): only for an orbit of a stroboscopic map")
+        if not isinstance(m, (StroboscopicMap, PoincareMap)):
+            raise InputError("trajectory(): only for an orbit of a flow's stroboscopic or "
+                             "Poincaré map")
+        if isinstance(n_per_period, bool) or not isinstance(n_per_period, (int, np.integer)) \
+                or n_per_period < 2:
+            raise InputError(f"n_per_period = {n_per_period!r}: must be an integer >= 2")
         ts, ys = [], []
+        t_start = 0.0
         for i in range(self.period):
-            t, Y = m.trajectory(self.points[i], self.z[i], n_per_period + 1)
-            ts.append(t[:-1] + i * m.T)
+            if isinstance(m, StroboscopicMap):
+                t, Y = m.trajectory(self.points[i], self.z[i], n_per_period + 1)
+                dt = m.T
+            else:
+                dt = float(self.return_times[i])
+                y, zz = m.unpack(self.points[i], self.z[i], relabel=True)
+                te = m.t0 + dt * np.arange(n_per_period + 1) / n_per_period
+                out, _, _ = m._plain(y, zz, m.t0, te[-1], t_eval=te)
+                t, Y = te - m.t0, out.Y[:n_per_period + 1].copy()
+            ts.append(t[:-1] + t_start)
             ys.append(Y[:-1])
+            t_start += dt
         return np.concatenate(ts), np.vstack(ys)
 
     def observe(self, columns, n_per_period: int = 200):
@@ -158,6 +225,11 @@ class PeriodicOrbit:
                 "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
                 "multiplier_error": [float(e) for e in self.multiplier_error],
                 "max_abs_multiplier": self.max_abs_multiplier, "stable": self.stable,
+                "stability": self.stability, "memory_neutral": self.memory_neutral,
+                "multiplier_uncertainty": self.multiplier_uncertainty,
+                "time_period": (None if not math.isfinite(self.time_period)
+                                else self.time_period),
+                "return_times": [float(t) for t in self.return_times],
                 "onsets_per_period": int(self.onsets_per_period),
                 "onsets": [int(o) for o in self.onsets],
                 "min_approach_speed": (None if not math.isfinite(self.min_approach_speed)
@@ -446,56 +518,46 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         zs = [m.unpack(points[i], zs[i], relabel=True)[1] for i in range(p)]
     res = float(np.max(np.abs(r)))
     M = _orbit_monodromy(steps, p)
-    mu = floquet(M)
-    err = np.zeros(mu.size)
     det_check = None
     onsets = np.sum([st.onsets for st in steps], axis=0) if len(getattr(steps[0], "onsets", [])) \
         else np.zeros(0, dtype=np.int64)
     mins = (np.min([st.min_approach for st in steps], axis=0) if steps[0].min_approach.size
             else np.zeros(0))
+    if isinstance(m, PoincareMap):
+        B = m.plane_basis
+        Bf = np.zeros((m.n, B.shape[1] + m.memory.size))
+        Bf[:m.n_y, :B.shape[1]] = B
+        Bf[m.n_y:, B.shape[1]:] = np.eye(m.memory.size)
+
+        def multipliers(MM):
+            return floquet(Bf.T @ MM @ Bf)
+    else:
+        multipliers = floquet
+    mu = multipliers(M)
+    err = np.zeros(mu.size)
     if check and converged and not isinstance(m, NumbaMap):
         m2 = _with_rtol(m, min(10.0 * m.rtol, 1e-4))
         steps2 = []
         for i in range(p):
             steps2.append(m2.step(points[i], zs[i], jacobian=True, divergence=True,
                                    relabel=True))
-        mu2 = floquet(_orbit_monodromy(steps2, p))
-        err = _match(mu, mu2)
+        M2 = _orbit_monodromy(steps2, p)
+        err = _match(mu, multipliers(M2))
         if m.memory.size == 0 and isinstance(m, StroboscopicMap):
-            ld = float(np.linalg.slogdet(_orbit_monodromy(steps2, p))[1])
+            ld = float(np.linalg.slogdet(M2)[1])
             liou = float(sum(s.divergence + s.log_det_saltation for s in steps2))
             det_check = {"log_det_M": ld, "liouville": liou, "difference": ld - liou,
                          "rtol": m2.rtol}
-    if isinstance(m, PoincareMap):
-        B = m.plane_basis
-        Bf = np.zeros((m.n, B.shape[1] + m.memory.size))
-        Bf[:m.n_y, :B.shape[1]] = B
-        Bf[m.n_y:, B.shape[1]:] = np.eye(m.memory.size)
-        mu = floquet(Bf.T @ M @ Bf)
-        err = err[:mu.size]
-    continuum = False
+    n_neutral = 0
     if m.memory.size and onsets.size:
         # a memory entry of a joint without an onset on the orbit is never reset
         kern = getattr(m.flow, "kernel", None)
         for j, zi in enumerate(m.memory):
             ci = int(zi) if kern is not None else j
             if ci < onsets.size and onsets[ci] == 0:
-                continuum = True
-    amu = np.abs(mu)
-    stable = None
-    if mu.size:
-        consider = amu
-        if continuum:
-            # drop the neutral memory multipliers (exactly 1) from the verdict
-            consider = np.sort(amu)
-            drop = [int(np.argmin(np.abs(amu - 1.0)))]
-            consider = np.delete(amu, drop)
-        if consider.size:
-            e = float(np.max(err)) if err.size else 0.0
-            if float(np.max(consider)) + e < 1.0:
-                stable = True
-            elif float(np.max(consider)) - e > 1.0:
-                stable = False
+                n_neutral += 1
+    continuum = n_neutral > 0
+    stable, unc = _stability(mu, err, n_neutral, res)
     settings = {"period": p, "shooting": "multiple" if multiple else "single",
                 "rtol": getattr(m, "rtol", None), "tol": tol, "max_iter": int(max_iter),
                 "transient": int(transient), "map": repr(m)}
@@ -503,7 +565,41 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
                          message, mu, err, M, stable if converged else None,
                          onsets.astype(np.int64), int(np.sum(onsets)) if onsets.size else 0,
                          float(np.min(mins)) if mins.size else math.inf, continuum, det_check,
-                         list(m.state_names), getattr(system, "name", m.name), settings, m)
+                         list(m.state_names), getattr(system, "name", m.name), settings, m,
+                         unc if converged else math.nan,
+                         np.array([float(st.time) for st in steps[:p]]) if not
+                         isinstance(m, NumbaMap) else np.zeros(0), n_neutral)
+
+
+def _deciding(mu, n_neutral: int) -> np.ndarray:
+    """mu without the n_neutral multipliers nearest 1 (the never-reset memory's)."""
+    mu = np.asarray(mu)
+    if n_neutral <= 0 or mu.size == 0:
+        return mu
+    drop = np.argsort(np.abs(mu - 1.0))[:n_neutral]
+    return np.delete(mu, drop)
+
+
+def _stability(mu, err, n_neutral: int, residual: float):
+    """(stable: True / False / None, u): the verdict of the deciding multipliers (module
+    docstring) and the uncertainty u of their largest modulus."""
+    mu, err = np.asarray(mu), np.asarray(err, dtype=float)
+    keep = np.ones(mu.size, dtype=bool)
+    if n_neutral > 0 and mu.size:
+        keep[np.argsort(np.abs(mu - 1.0))[:n_neutral]] = False
+    dec, e = mu[keep], err[keep] if err.size == mu.size else np.zeros(int(keep.sum()))
+    if dec.size == 0:
+        return None, 0.0
+    amax = float(np.max(np.abs(dec)))
+    floor = max(float(residual) if math.isfinite(residual) else math.inf, 1e-13) * max(1.0, amax)
+    u = max(float(np.max(e)) if e.size else 0.0, floor)
+    if not math.isfinite(amax):
+        return None, u
+    if amax + u < 1.0:
+        return True, u
+    if amax - u > 1.0:
+        return False, u
+    return None, u
 
 
 def _guess_points(m, guess, z0, p, transient):

@@ -75,12 +75,15 @@ def add_parser(sub):
 def _orbit_line(o, scale_names) -> str:
     mu = ", ".join(f"{m.real:.6g}{m.imag:+.3g}j" if abs(m.imag) > 0 else f"{m.real:.6g}"
                    for m in o.multipliers)
-    st = {True: "stable", False: "unstable", None: "undecided"}[o.stable]
     appr = ("no onset" if not math.isfinite(o.min_approach_speed)
             else f"min approach {o.min_approach_speed:.4g} m/s")
-    extra = " (memory never reset: one of a continuum, history-dependent)" if o.continuum else ""
-    return (f"period {o.period}: {st}, max |mu| {o.max_abs_multiplier:.6g} ± "
-            f"{float(np.max(o.multiplier_error)) if o.multiplier_error.size else 0:.2g}; "
+    extra = " (history-dependent: the memory value is the history's)" if o.continuum else ""
+    u = o.multiplier_uncertainty
+    dec = o.deciding_multipliers
+    amax = float(np.max(np.abs(dec))) if dec.size else math.nan
+    return (f"period {o.period}: {o.stability_text}, "
+            f"{'max |mu| of the others' if o.continuum else 'max |mu|'} {amax:.6g} ± "
+            f"{u if math.isfinite(u) else 0:.2g}; "
             f"{o.onsets_per_period} onsets per period, {appr}; residual {o.residual:.2g} "
             f"(tolerance {o.tolerance:.2g}){extra}\n    multipliers: {mu}\n    point: "
             + ", ".join(f"{n} = {x:.9g}" for n, x in zip(scale_names, o.points[0])))
