@@ -6,7 +6,7 @@ import math
 import numpy as np
 from numba import njit
 
-from nld.analysis.orbits import periodic_orbit
+from nld.analysis.orbits import find_orbits, periodic_orbit
 from nld.systems import ContinuousSystem, PoincareMap, henon, logistic
 
 
@@ -52,3 +52,25 @@ def test_poincare_orbit_carries_its_time_period_and_trajectory():
     # period 2 by multiple shooting: twice the time
     o2 = periodic_orbit(PoincareMap(S, [0.0, 1.0], 0.0, +1, dt=0.05), 2, [0.5, 0.0], rtol=1e-10)
     assert abs(o2.time_period - 4 * math.pi / w) < 1e-8
+
+
+# ------------------------------------------------------------------ equilibria on a Poincaré section
+def test_equilibria_on_the_section_are_no_periodic_orbits():
+    # Lorenz (10, 28, 8/3): C+- = (+-sqrt(72), +-sqrt(72), 27) lie on the section z = 27, where
+    # the flow vanishes: no orbit (issue 38 item 3). The AB cycle is one, with its published
+    # period T = 1.5586522107 and multiplier 4.712947274 (Viswanath 2003)
+    from nld.systems import lorenz
+    c = math.sqrt(72.0)
+    P = PoincareMap(lorenz(), [0.0, 0.0, 1.0], 27.0, +1)
+    o = periodic_orbit(P, 1, [c + 1e-3, c - 1e-3, 27.0])
+    assert not o.converged and o.stability == "unconverged" and o.stable is None
+    assert "equilibrium" in o.message
+    orbs = find_orbits(P, max_period=2)
+    assert orbs
+    for o in orbs:
+        assert np.min(np.abs(np.abs(o.points[:, :2]) - c)) > 1e-3
+    ab = [o for o in orbs if o.period == 2]
+    assert len(ab) == 1
+    assert abs(ab[0].time_period - 1.5586522107) < 1e-8
+    assert abs(ab[0].max_abs_multiplier - 4.712947274) < 1e-6
+    assert ab[0].stability == "unstable"

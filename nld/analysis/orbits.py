@@ -517,6 +517,10 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     if not isinstance(m, NumbaMap):
         zs = [m.unpack(points[i], zs[i], relabel=True)[1] for i in range(p)]
     res = float(np.max(np.abs(r)))
+    if converged and isinstance(m, PoincareMap):
+        why = _equilibrium(m, points, zs, [st.time for st in steps[:p]], max(res, tol))
+        if why:
+            converged, message = False, why
     M = _orbit_monodromy(steps, p)
     det_check = None
     onsets = np.sum([st.onsets for st in steps], axis=0) if len(getattr(steps[0], "onsets", [])) \
@@ -569,6 +573,31 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
                          unc if converged else math.nan,
                          np.array([float(st.time) for st in steps[:p]]) if not
                          isinstance(m, NumbaMap) else np.zeros(0), n_neutral)
+
+
+EQUILIBRIUM_EXCURSION = 1e3
+
+
+def _equilibrium(m, points, zs, times, res: float, samples: int = 32) -> str:
+    """Why a fixed point of a Poincaré map is no periodic orbit, or "": a section point where the
+    flow (nearly) vanishes, an equilibrium on the section, returns to itself with an arbitrary
+    return time (round-off crossings). Test: the trajectory from each point over its return time
+    stays within EQUILIBRIUM_EXCURSION x the residual (scaled) of the point; a periodic orbit
+    moves away from its section point and comes back (issue 38 item 3)."""
+    for i, x in enumerate(points):
+        y, zz = m.unpack(x, zs[i], relabel=True)
+        te = m.t0 + float(times[i]) * np.arange(1, samples + 1) / samples
+        out, _, _ = m._plain(y, zz, m.t0, te[-1], t_eval=te)
+        ys = out.Y[:samples]
+        exc = float(np.max(np.abs(ys - y[None, :]) / m.scales[None, :m.n_y]))
+        if exc <= EQUILIBRIUM_EXCURSION * res:
+            f = np.empty(m.n_y)
+            m.flow.rhs(m.t0, np.ascontiguousarray(y), m.p, zz, f)
+            return (f"an equilibrium on the section, no periodic orbit: the flow nearly vanishes "
+                    f"at the point ({', '.join(f'{v:.6g}' for v in y)}; |f| = "
+                    f"{float(np.max(np.abs(f))):.3g}) and its trajectory stays within {exc:.2g} "
+                    f"(scaled) of it over the 'return' time {float(times[i]):.4g}")
+    return ""
 
 
 def _deciding(mu, n_neutral: int) -> np.ndarray:
