@@ -57,6 +57,9 @@ __all__ = ["PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_p
            "section_points", "prime_period"]
 
 DEFAULT_MAX_ITER = 30
+# a Newton step that leaves more than this fraction of the residual counts towards a stall (three
+# in a row end the Newton)
+STALL_RATIO = 0.9
 
 
 def check_period(period, field: str = "period") -> int:
@@ -68,6 +71,37 @@ def check_period(period, field: str = "period") -> int:
     if period < 1:
         raise InputError(f"{field} = {period!r}: must be a whole number of periods >= 1")
     return int(period)
+
+
+# the most shooting unknowns (period x augmented state size): the multiple-shooting Newton matrix
+# is dense, (p N)^2 doubles, and its SVD costs ~ (p N)^3 flops: 4000 unknowns are 128 MB and tens
+# of seconds; a longer period is refused before any integration (issue 37, class 1)
+MAX_SHOOTING_UNKNOWNS = 4000
+
+
+def max_period_for(n_states: int) -> int:
+    """The longest period whose shooting fits MAX_SHOOTING_UNKNOWNS for a map of n_states."""
+    return max(1, MAX_SHOOTING_UNKNOWNS // max(1, int(n_states)))
+
+
+def check_size(period: int, n_states: int, field: str = "period") -> None:
+    """InputError naming ``field`` when a period-``period`` orbit of a map with ``n_states``
+    (augmented) states is beyond MAX_SHOOTING_UNKNOWNS, with the largest value that fits."""
+    most = max_period_for(n_states)
+    if period > most:
+        raise InputError(f"{field} = {period}: too long: shooting over {period} periods has "
+                         f"{period * n_states:.3g} unknowns ({n_states} per period), a dense "
+                         f"Newton matrix of {8.0 * (period * n_states) ** 2 / 2**30:.3g} GiB; at "
+                         f"most {most} ({MAX_SHOOTING_UNKNOWNS} unknowns)")
+
+
+def _whole(value, field: str, least: int) -> int:
+    """value as an int >= least, else InputError naming ``field``."""
+    if isinstance(value, (float, np.floating)) and float(value).is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise InputError(f"{field} = {value!r}: must be a whole number >= {least}")
+    return int(value)
 
 
 @dataclass
@@ -366,9 +400,14 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
                     rest = float(np.max(np.abs(rt)))
                     if rest < (1.0 - 1e-4 * alpha) * res or rest <= tol:
                         if not full:
-                            rt, Jt, st = sh.evaluate(Xt, Zt, True)
-                            rest = float(np.max(np.abs(rt)))
-                        if _finite(Jt):
+                            # the Jacobian at the accepted trial: a failed tangent integration
+                            # (a step size underflow in a stiff contact) rejects the trial too
+                            try:
+                                rt, Jt, st = sh.evaluate(Xt, Zt, True)
+                                rest = float(np.max(np.abs(rt)))
+                            except SolveError:
+                                Jt = None
+                        if Jt is not None and _finite(Jt) and _finite(rt):
                             accepted = True
                             break
                 alpha *= 0.25
@@ -385,7 +424,9 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
         if sh.multiple:
             # the labels at x_{i+1} are those the step from x_i arrived with
             Z = [st[(i - 1) % p].z for i in range(p)]
-        stalls = stalls + 1 if rest > 0.5 * res else 0
+        # a step that cuts the residual by less than 10 % counts as a stall (damped steps that cut
+        # it by a third each are progress: a flip saddle from a far guess)
+        stalls = stalls + 1 if rest > STALL_RATIO * res else 0
         r, J, steps, res = rt, Jt, st, rest
         if res < best[0]:
             best = (res, X, Z, r, J, steps)
@@ -495,6 +536,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     m = as_map(system, rtol)
     if rtol is not None and getattr(m, "rtol", rtol) != rtol and not isinstance(m, NumbaMap):
         m = _with_rtol(m, float(rtol))
+    check_size(p, m.n)
     multiple = shooting == "multiple" or (shooting == "auto" and p >= 2)
     tol = float(tol) if tol is not None else (1e-10 if isinstance(m, NumbaMap) else 1e3 * m.rtol)
     if not (tol > 0 and math.isfinite(tol)):
@@ -762,7 +804,7 @@ def stabilised_seeds(m: NumbaMap, period: int, starts, *, lam: float | None = No
 def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
                 transient: int | None = None, seeds_per_period: int | None = None,
                 rtol: float | None = None, tol: float | None = None, grid: int = 0,
-                stabilising: int = 0, progress=None) -> list[PeriodicOrbit]:
+                stabilising: int = 0, progress=None, min_period: int = 1) -> list[PeriodicOrbit]:
     """The distinct periodic orbits of periods 1..max_period near the system's attractor.
 
     Seeds: the close returns ||P^p(x_i) - x_i|| of ``n_points`` section points after a
@@ -770,24 +812,46 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
     ``seeds_per_period`` closest per period (maps 400, flows 6), and for a map a ``grid`` x grid
     lattice over the box of the points enlarged by half its size (default 0: none), and for a map
     with ``stabilising`` > 0 the fixed points of f^p reached by the stabilising transformations of
-    Schmelcher & Diakonos (1997) from that many attractor points (:func:`stabilised_seeds`). Each seed is
+    Schmelcher & Diakonos (1997) from that many attractor points (:func:`stabilised_seeds`);
+    ``min_period``: search periods min_period..max_period only. Each seed is
     refined by :func:`periodic_orbit` (multiple shooting for p >= 2); orbits that are not of prime
     period p, or equal to one found (any cyclic shift), are dropped. Returns the converged orbits
     by period, then by decreasing max |mu|.
     """
     P = check_period(max_period, "max_period")
+    P0 = check_period(min_period, "min_period")
+    if P0 > P:
+        raise InputError(f"min_period = {min_period!r}: must be <= max_period = {P}")
     m = as_map(system, rtol)
     is_flow = not isinstance(m, NumbaMap)
-    n_points = int(n_points if n_points is not None else (120 if is_flow else 2000))
-    transient = int(transient if transient is not None else (50 if is_flow else 100))
-    spp = int(seeds_per_period if seeds_per_period is not None else (6 if is_flow else 400))
+    n_points = _whole(n_points if n_points is not None else default_points(m), "n_points", 2)
+    transient = _whole(transient if transient is not None else (50 if is_flow else 100),
+                       "transient", 0)
+    spp = _whole(seeds_per_period if seeds_per_period is not None else (6 if is_flow else 400),
+                 "seeds_per_period", 0)
+    grid = _whole(grid, "grid", 0)
+    stabilising = _whole(stabilising, "stabilising", 0)
+    if P >= n_points:
+        raise InputError(f"max_period = {P}: the close returns of period p need more than p of "
+                         f"the n_points = {n_points} section points: at most {n_points - 1} "
+                         f"(or raise n_points)")
+    check_size(P, m.n, "max_period")
+    if tol is not None and not (isinstance(tol, (int, float, np.floating)) and
+                                not isinstance(tol, bool) and math.isfinite(tol) and tol > 0):
+        raise InputError(f"tol = {tol!r}: must be a positive number")
+    if stabilising and is_flow:
+        raise InputError(f"stabilising = {stabilising}: stabilising transformations are for a "
+                         f"DiscreteMap only (a flow's seeds are the close returns)")
+    if grid and is_flow:
+        raise InputError(f"grid = {grid}: a seed grid is for a DiscreteMap only (a flow's seeds "
+                         f"are the close returns)")
+    if stabilising:
+        signed_permutations(m.n)        # refuses maps of more than 4 states
     x0, z0 = _iterate(m, m.y0, m.z0, transient)
     X, Z = section_points(m, x0, z0, n_points)
     found: list[PeriodicOrbit] = []
     dedup_tol = 1e-6
-    for p in range(1, P + 1):
-        if n_points <= p:
-            break
+    for p in range(P0, P + 1):
         d = np.array([np.max(np.abs(m.difference(X[i + p], X[i]) / m.scales))
                       for i in range(n_points - p)])
         order = np.argsort(d)
@@ -832,6 +896,11 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
         per_p.sort(key=lambda o: -o.max_abs_multiplier)
         found += per_p
     return found
+
+
+def default_points(m) -> int:
+    """find_orbits' default number of section points: 120 for a flow's map, 2000 for a map."""
+    return 2000 if isinstance(m, NumbaMap) else 120
 
 
 def _iterate(m, x, z, n):
