@@ -109,3 +109,33 @@ def test_cli_period_1_at_mu0_finds_the_orbit_newton_from_the_transient_misses(ca
     o = json.loads(capsys.readouterr().out)["orbits"][0]
     assert o["converged"] and o["period"] == 1 and o["stability"] == "unstable"
     assert o["memory_neutral"] and "close return" in o["message"]
+
+
+def test_memory_column_of_an_orbit_in_contact_at_the_section_is_not_zero():
+    # issue 38 item 7: the mu = 0.1 orbit has one onset per period, but the journal is in contact
+    # at the section: the memory recorded at the last onset acts through the damping force until
+    # the separation, so its column of the monodromy is not zero (16.8 in the rod.phi_dot row,
+    # scaled); the monodromy against central differences of the map (h = 1e-4 scales)
+    from nld.systems import SceneSystem
+    S = SceneSystem("slider_crank_olyaei", ["joints.B.clearance=2e-4", "joints.B.friction.mu=0.1"])
+    o = O.periodic_orbit(S, 1, transient=10, rtol=1e-10)
+    assert o.converged and o.onsets_per_period == 1 and not o.memory_neutral
+    assert o.stability == "stable" and abs(o.time_period - S.period) < 1e-15
+    assert abs(o.multipliers[0] - (-0.5518)) < 1e-3 and abs(o.multipliers[1] - 0.1298) < 1e-3
+    m = o.map
+    x, z = o.points[0], o.z[0]
+    n = m.n
+    F = np.zeros((n, n))
+    for j in range(n):
+        h = 1e-4 * m.scales[j]
+        xp, xm = x.copy(), x.copy()
+        xp[j] += h
+        xm[j] -= h
+        F[:, j] = m.difference(m.step(xp, z, relabel=True).x, m.step(xm, z, relabel=True).x) / (2 * h)
+    s = m.scales
+    Ms = o.monodromy * s[None, :] / s[:, None]
+    Fs = F * s[None, :] / s[:, None]
+    col = Ms[:, -1]
+    assert abs(col[o.state_names.index("rod.phi_dot")]) > 10.0
+    assert np.linalg.norm(Fs[:, -1] - col) < 0.02 * np.linalg.norm(col)
+    assert np.linalg.norm(Fs - Ms) < 0.02 * np.linalg.norm(Ms)       # measured 3.2e-3
