@@ -228,6 +228,9 @@ class PeriodicOrbit:
         orbit: a DataFrame with ``t`` (s from the first section point) and the columns."""
         import pandas as pd
         m = self.map
+        if isinstance(n_per_period, bool) or not isinstance(n_per_period, (int, np.integer)) \
+                or n_per_period < 2:
+            raise InputError(f"n_per_period = {n_per_period!r}: must be an integer >= 2")
         kern = getattr(getattr(m, "flow", None), "kernel", None)
         if kern is None or not isinstance(m, StroboscopicMap):
             raise InputError("observe(): only for an orbit of a scene's stroboscopic map")
@@ -538,6 +541,9 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         m = _with_rtol(m, float(rtol))
     check_size(p, m.n)
     multiple = shooting == "multiple" or (shooting == "auto" and p >= 2)
+    if tol is not None and (isinstance(tol, bool) or
+                            not isinstance(tol, (int, float, np.integer, np.floating))):
+        raise InputError(f"tol = {tol!r}: must be a positive number")
     tol = float(tol) if tol is not None else (1e-10 if isinstance(m, NumbaMap) else 1e3 * m.rtol)
     if not (tol > 0 and math.isfinite(tol)):
         raise InputError(f"tol = {tol!r}: must be a positive number")
@@ -635,10 +641,13 @@ def _equilibrium(m, points, zs, times, res: float, samples: int = 32) -> str:
         if exc <= EQUILIBRIUM_EXCURSION * res:
             f = np.empty(m.n_y)
             m.flow.rhs(m.t0, np.ascontiguousarray(y), m.p, zz, f)
-            return (f"an equilibrium on the section, no periodic orbit: the flow nearly vanishes "
-                    f"at the point ({', '.join(f'{v:.6g}' for v in y)}; |f| = "
-                    f"{float(np.max(np.abs(f))):.3g}) and its trajectory stays within {exc:.2g} "
-                    f"(scaled) of it over the 'return' time {float(times[i]):.4g}")
+            speed = float(np.max(np.abs(f) / m.scales[:m.n_y]))
+            what = ("an equilibrium on the section" if speed * float(times[i]) <= 1.0
+                    else "a return time of ~0")
+            return (f"{what}, no periodic orbit: the trajectory from the point "
+                    f"({', '.join(f'{v:.6g}' for v in y)}; |f| = {float(np.max(np.abs(f))):.3g}) "
+                    f"stays within {exc:.2g} (scaled) of it over the 'return' time "
+                    f"{float(times[i]):.4g}")
     return ""
 
 
