@@ -23,10 +23,14 @@ def add_parser(sub):
                     "Newton shooting with the monodromy matrix (tangent integration with "
                     "saltation at every contact event) from the state after a transient; with "
                     "--max-period, every distinct orbit of periods 1..P found from close returns "
-                    "of the section. Prints each orbit's section point, residual, Floquet "
+                    "of the section. Where Newton from the transient does not converge, --period "
+                    "searches the section's close returns for an orbit of that prime period. "
+                    "Prints each orbit's section point, residual, Floquet "
                     "multipliers (with their uncertainty from a second evaluation at 10 rtol), "
-                    "stability, contact onsets per period and the smallest approach speed at an "
-                    "onset (distance to grazing). Exit 1 when no orbit converged.")
+                    "stability (stable / unstable / neutral: within its uncertainty of |mu| = 1; "
+                    "decided by the multipliers other than the contact memory's neutral one, "
+                    "which is named), contact onsets per period and the smallest approach speed "
+                    "at an onset (distance to grazing). Exit 1 when no orbit converged.")
     scene_args(sp)
     sp.add_argument("--period", type=count_arg("--period", 1), default=1, metavar="P",
                     help="the orbit's period in revolutions (default 1)")
