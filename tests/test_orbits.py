@@ -174,6 +174,10 @@ def test_permanent_contact_orbit_is_reported_as_a_continuum():
     assert o.continuum
     assert np.min(np.abs(o.multipliers - 1.0)) < 1e-9
     assert o.stable is True          # the other multipliers are inside the unit circle
+    # issue 38 item 6: neutral in the memory direction, stable by the others, and said so
+    assert o.memory_neutral and o.stability == "stable" and "memory" in o.stability_text
+    dec = o.deciding_multipliers
+    assert dec.size == o.multipliers.size - 1 and np.max(np.abs(dec)) < 1 - o.multiplier_uncertainty
 
 
 # ------------------------------------------------------------------ bad input

@@ -21,9 +21,16 @@ map): the accuracy at which the integration can reproduce a period. A Newton tha
 there says so (``converged`` False, ``message``) and returns the best iterate.
 
 Floquet multipliers: the eigenvalues of the orbit's monodromy M, with an uncertainty from a
-second evaluation at 10 rtol (|mu(rtol) - mu(10 rtol)|, an upper estimate of the error at rtol);
-the orbit is called stable when max |mu| + uncertainty < 1, unstable when max |mu| -
-uncertainty > 1, undecided otherwise. The determinant of M is checked against the Liouville
+second evaluation at 10 rtol (|mu(rtol) - mu(10 rtol)|, an upper estimate of the error at rtol).
+Stability (``PeriodicOrbit.stability``) is decided by the multipliers that are not the contact
+memory's neutral one: an orbit on which a memory entry is never reset (permanent contact or no
+contact) has a multiplier 1 in the memory direction (one of a continuum of orbits: ``memory_neutral``)
+which is left out and said so. With mu_max the largest remaining |mu| and u its uncertainty
+(``multiplier_uncertainty``: the largest |mu(rtol) - mu(10 rtol)| of the deciding multipliers, at
+least the scaled residual times max(1, mu_max), the part of the error a point off the orbit by the
+residual leaves; for a map given exactly only that floor): "stable" when mu_max + u < 1, "unstable"
+when mu_max - u > 1, "neutral" otherwise (and for a continuum with nothing else deciding); never
+"stable" within the uncertainty of 1. The determinant of M is checked against the Liouville
 formula ln|det M| = int tr(df/dy) dt + sum ln|det S| (S the saltation matrices) where no memory is
 reset (docs/orbits.md). :func:`find_orbits` lists the distinct orbits of periods 1..P from close
 returns of the section (Auerbach et al. 1987; So et al. 1996) refined by Newton; for a map also
@@ -50,6 +57,9 @@ __all__ = ["PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_p
            "section_points", "prime_period"]
 
 DEFAULT_MAX_ITER = 30
+# a Newton step that leaves more than this fraction of the residual counts towards a stall (three
+# in a row end the Newton)
+STALL_RATIO = 0.9
 
 
 def check_period(period, field: str = "period") -> int:
@@ -61,6 +71,37 @@ def check_period(period, field: str = "period") -> int:
     if period < 1:
         raise InputError(f"{field} = {period!r}: must be a whole number of periods >= 1")
     return int(period)
+
+
+# the most shooting unknowns (period x augmented state size): the multiple-shooting Newton matrix
+# is dense, (p N)^2 doubles, and its SVD costs ~ (p N)^3 flops: 4000 unknowns are 128 MB and tens
+# of seconds; a longer period is refused before any integration (issue 37, class 1)
+MAX_SHOOTING_UNKNOWNS = 4000
+
+
+def max_period_for(n_states: int) -> int:
+    """The longest period whose shooting fits MAX_SHOOTING_UNKNOWNS for a map of n_states."""
+    return max(1, MAX_SHOOTING_UNKNOWNS // max(1, int(n_states)))
+
+
+def check_size(period: int, n_states: int, field: str = "period") -> None:
+    """InputError naming ``field`` when a period-``period`` orbit of a map with ``n_states``
+    (augmented) states is beyond MAX_SHOOTING_UNKNOWNS, with the largest value that fits."""
+    most = max_period_for(n_states)
+    if period > most:
+        raise InputError(f"{field} = {period}: too long: shooting over {period} periods has "
+                         f"{period * n_states:.3g} unknowns ({n_states} per period), a dense "
+                         f"Newton matrix of {8.0 * (period * n_states) ** 2 / 2**30:.3g} GiB; at "
+                         f"most {most} ({MAX_SHOOTING_UNKNOWNS} unknowns)")
+
+
+def _whole(value, field: str, least: int) -> int:
+    """value as an int >= least, else InputError naming ``field``."""
+    if isinstance(value, (float, np.floating)) and float(value).is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise InputError(f"{field} = {value!r}: must be a whole number >= {least}")
+    return int(value)
 
 
 @dataclass
@@ -75,13 +116,18 @@ class PeriodicOrbit:
                  value it had to reach; ``converged`` whether it did; ``iterations`` Newton steps.
     multipliers: Floquet multipliers (complex, by decreasing modulus) and ``multiplier_error``
                  (|mu(rtol) - mu(10 rtol)|; 0 for a map given exactly); ``monodromy`` (N, N).
-    stable:      True (max |mu| + err < 1), False (max |mu| - err > 1) or None (undecided).
+    stable:      True only when ``stability`` is "stable", False when "unstable", else None.
+    multiplier_uncertainty: the uncertainty u of the largest deciding |mu| (module docstring:
+                 from the second evaluation at 10 rtol, at least residual x max(1, |mu|)).
+    return_times: the flow time of each of the p map steps (s; the forcing period, or a Poincaré
+                 map's return times; empty for a DiscreteMap); ``time_period`` their sum.
     onsets:      contact onsets per contact event over the whole period (a scene: per clearance
                  joint); ``onsets_per_period`` their sum; ``min_approach_speed`` the smallest
                  normal approach speed at an onset on the orbit (m/s; inf: no onset).
     continuum:   True when a memory entry is never reset on the orbit (permanent contact or no
                  contact): it is then a neutral direction (multiplier 1) and the orbit one of a
-                 continuum, selected by the history (docs/orbits.md, "Memory state").
+                 continuum, selected by the history (docs/orbits.md, "Memory state");
+                 ``memory_neutral`` is the same.
     det_check:   {"log_det_M", "liouville", "difference"} or None where not applicable.
     """
     period: int
@@ -105,21 +151,76 @@ class PeriodicOrbit:
     system_name: str
     settings: dict = field(default_factory=dict)
     map: object = field(default=None, repr=False)
+    multiplier_uncertainty: float = math.nan
+    return_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    n_memory_neutral: int = 0
 
     @property
     def max_abs_multiplier(self) -> float:
         return float(np.max(np.abs(self.multipliers))) if self.multipliers.size else math.nan
 
+    @property
+    def memory_neutral(self) -> bool:
+        """The orbit has the contact memory's neutral multiplier (1, a memory entry never reset:
+        one of a continuum of orbits); stability is then decided by the other multipliers."""
+        return bool(self.continuum)
+
+    @property
+    def deciding_multipliers(self) -> np.ndarray:
+        """The multipliers that decide stability: the memory's neutral ones (those nearest 1,
+        one per never-reset memory entry) left out."""
+        return _deciding(self.multipliers, self.n_memory_neutral)
+
+    @property
+    def stability(self) -> str:
+        """"stable", "unstable" or "neutral" (module docstring): decided by the multipliers other
+        than the contact memory's neutral one; "neutral" when the largest of them is within
+        ``multiplier_uncertainty`` of 1 in modulus, or nothing else decides. "unconverged" for an
+        orbit whose Newton did not converge (no orbit, no stability)."""
+        if not self.converged:
+            return "unconverged"
+        return {True: "stable", False: "unstable", None: "neutral"}[self.stable]
+
+    @property
+    def stability_text(self) -> str:
+        """The stability in words, with the memory direction named where it is neutral."""
+        st = self.stability
+        if self.memory_neutral and st != "unconverged":
+            return (f"{st} (neutral in the contact memory's direction, multiplier 1: one of a "
+                    f"continuum; stability from the other multipliers)")
+        return st
+
+    @property
+    def time_period(self) -> float:
+        """The orbit's period in time (s): the sum of its map steps' flow times (p forcing
+        periods; a Poincaré map's return times); nan for a DiscreteMap."""
+        return float(np.sum(self.return_times)) if len(self.return_times) else math.nan
+
     def trajectory(self, n_per_period: int = 200):
-        """The flow's states along the whole orbit: (t (s) from the first point, Y)."""
+        """The flow's states along the whole orbit: (t (s) from the first point, Y), n_per_period
+        samples per map step (a stroboscopic map's period, or a Poincaré map's return time)."""
         m = self.map
-        if not isinstance(m, StroboscopicMap):
-            raise InputError("trajectory(): only for an orbit of a stroboscopic map")
+        if not isinstance(m, (StroboscopicMap, PoincareMap)):
+            raise InputError("trajectory(): only for an orbit of a flow's stroboscopic or "
+                             "Poincaré map")
+        if isinstance(n_per_period, bool) or not isinstance(n_per_period, (int, np.integer)) \
+                or n_per_period < 2:
+            raise InputError(f"n_per_period = {n_per_period!r}: must be an integer >= 2")
         ts, ys = [], []
+        t_start = 0.0
         for i in range(self.period):
-            t, Y = m.trajectory(self.points[i], self.z[i], n_per_period + 1)
-            ts.append(t[:-1] + i * m.T)
+            if isinstance(m, StroboscopicMap):
+                t, Y = m.trajectory(self.points[i], self.z[i], n_per_period + 1)
+                dt = m.T
+            else:
+                dt = float(self.return_times[i])
+                y, zz = m.unpack(self.points[i], self.z[i], relabel=True)
+                te = m.t0 + dt * np.arange(n_per_period + 1) / n_per_period
+                out, _, _ = m._plain(y, zz, m.t0, te[-1], t_eval=te)
+                t, Y = te - m.t0, out.Y[:n_per_period + 1].copy()
+            ts.append(t[:-1] + t_start)
             ys.append(Y[:-1])
+            t_start += dt
         return np.concatenate(ts), np.vstack(ys)
 
     def observe(self, columns, n_per_period: int = 200):
@@ -127,6 +228,9 @@ class PeriodicOrbit:
         orbit: a DataFrame with ``t`` (s from the first section point) and the columns."""
         import pandas as pd
         m = self.map
+        if isinstance(n_per_period, bool) or not isinstance(n_per_period, (int, np.integer)) \
+                or n_per_period < 2:
+            raise InputError(f"n_per_period = {n_per_period!r}: must be an integer >= 2")
         kern = getattr(getattr(m, "flow", None), "kernel", None)
         if kern is None or not isinstance(m, StroboscopicMap):
             raise InputError("observe(): only for an orbit of a scene's stroboscopic map")
@@ -158,6 +262,11 @@ class PeriodicOrbit:
                 "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
                 "multiplier_error": [float(e) for e in self.multiplier_error],
                 "max_abs_multiplier": self.max_abs_multiplier, "stable": self.stable,
+                "stability": self.stability, "memory_neutral": self.memory_neutral,
+                "multiplier_uncertainty": self.multiplier_uncertainty,
+                "time_period": (None if not math.isfinite(self.time_period)
+                                else self.time_period),
+                "return_times": [float(t) for t in self.return_times],
                 "onsets_per_period": int(self.onsets_per_period),
                 "onsets": [int(o) for o in self.onsets],
                 "min_approach_speed": (None if not math.isfinite(self.min_approach_speed)
@@ -294,9 +403,14 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
                     rest = float(np.max(np.abs(rt)))
                     if rest < (1.0 - 1e-4 * alpha) * res or rest <= tol:
                         if not full:
-                            rt, Jt, st = sh.evaluate(Xt, Zt, True)
-                            rest = float(np.max(np.abs(rt)))
-                        if _finite(Jt):
+                            # the Jacobian at the accepted trial: a failed tangent integration
+                            # (a step size underflow in a stiff contact) rejects the trial too
+                            try:
+                                rt, Jt, st = sh.evaluate(Xt, Zt, True)
+                                rest = float(np.max(np.abs(rt)))
+                            except SolveError:
+                                Jt = None
+                        if Jt is not None and _finite(Jt) and _finite(rt):
                             accepted = True
                             break
                 alpha *= 0.25
@@ -313,7 +427,9 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
         if sh.multiple:
             # the labels at x_{i+1} are those the step from x_i arrived with
             Z = [st[(i - 1) % p].z for i in range(p)]
-        stalls = stalls + 1 if rest > 0.5 * res else 0
+        # a step that cuts the residual by less than 10 % counts as a stall (damped steps that cut
+        # it by a third each are progress: a flip saddle from a far guess)
+        stalls = stalls + 1 if rest > STALL_RATIO * res else 0
         r, J, steps, res = rt, Jt, st, rest
         if res < best[0]:
             best = (res, X, Z, r, J, steps)
@@ -423,7 +539,11 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     m = as_map(system, rtol)
     if rtol is not None and getattr(m, "rtol", rtol) != rtol and not isinstance(m, NumbaMap):
         m = _with_rtol(m, float(rtol))
+    check_size(p, m.n)
     multiple = shooting == "multiple" or (shooting == "auto" and p >= 2)
+    if tol is not None and (isinstance(tol, bool) or
+                            not isinstance(tol, (int, float, np.integer, np.floating))):
+        raise InputError(f"tol = {tol!r}: must be a positive number")
     tol = float(tol) if tol is not None else (1e-10 if isinstance(m, NumbaMap) else 1e3 * m.rtol)
     if not (tol > 0 and math.isfinite(tol)):
         raise InputError(f"tol = {tol!r}: must be a positive number")
@@ -445,57 +565,51 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     if not isinstance(m, NumbaMap):
         zs = [m.unpack(points[i], zs[i], relabel=True)[1] for i in range(p)]
     res = float(np.max(np.abs(r)))
+    if converged and isinstance(m, PoincareMap):
+        why = _equilibrium(m, points, zs, [st.time for st in steps[:p]], max(res, tol))
+        if why:
+            converged, message = False, why
     M = _orbit_monodromy(steps, p)
-    mu = floquet(M)
-    err = np.zeros(mu.size)
     det_check = None
     onsets = np.sum([st.onsets for st in steps], axis=0) if len(getattr(steps[0], "onsets", [])) \
         else np.zeros(0, dtype=np.int64)
     mins = (np.min([st.min_approach for st in steps], axis=0) if steps[0].min_approach.size
             else np.zeros(0))
+    if isinstance(m, PoincareMap):
+        B = m.plane_basis
+        Bf = np.zeros((m.n, B.shape[1] + m.memory.size))
+        Bf[:m.n_y, :B.shape[1]] = B
+        Bf[m.n_y:, B.shape[1]:] = np.eye(m.memory.size)
+
+        def multipliers(MM):
+            return floquet(Bf.T @ MM @ Bf)
+    else:
+        multipliers = floquet
+    mu = multipliers(M)
+    err = np.zeros(mu.size)
     if check and converged and not isinstance(m, NumbaMap):
         m2 = _with_rtol(m, min(10.0 * m.rtol, 1e-4))
         steps2 = []
         for i in range(p):
             steps2.append(m2.step(points[i], zs[i], jacobian=True, divergence=True,
                                    relabel=True))
-        mu2 = floquet(_orbit_monodromy(steps2, p))
-        err = _match(mu, mu2)
+        M2 = _orbit_monodromy(steps2, p)
+        err = _match(mu, multipliers(M2))
         if m.memory.size == 0 and isinstance(m, StroboscopicMap):
-            ld = float(np.linalg.slogdet(_orbit_monodromy(steps2, p))[1])
+            ld = float(np.linalg.slogdet(M2)[1])
             liou = float(sum(s.divergence + s.log_det_saltation for s in steps2))
             det_check = {"log_det_M": ld, "liouville": liou, "difference": ld - liou,
                          "rtol": m2.rtol}
-    if isinstance(m, PoincareMap):
-        B = m.plane_basis
-        Bf = np.zeros((m.n, B.shape[1] + m.memory.size))
-        Bf[:m.n_y, :B.shape[1]] = B
-        Bf[m.n_y:, B.shape[1]:] = np.eye(m.memory.size)
-        mu = floquet(Bf.T @ M @ Bf)
-        err = err[:mu.size]
-    continuum = False
+    n_neutral = 0
     if m.memory.size and onsets.size:
         # a memory entry of a joint without an onset on the orbit is never reset
         kern = getattr(m.flow, "kernel", None)
         for j, zi in enumerate(m.memory):
             ci = int(zi) if kern is not None else j
             if ci < onsets.size and onsets[ci] == 0:
-                continuum = True
-    amu = np.abs(mu)
-    stable = None
-    if mu.size:
-        consider = amu
-        if continuum:
-            # drop the neutral memory multipliers (exactly 1) from the verdict
-            consider = np.sort(amu)
-            drop = [int(np.argmin(np.abs(amu - 1.0)))]
-            consider = np.delete(amu, drop)
-        if consider.size:
-            e = float(np.max(err)) if err.size else 0.0
-            if float(np.max(consider)) + e < 1.0:
-                stable = True
-            elif float(np.max(consider)) - e > 1.0:
-                stable = False
+                n_neutral += 1
+    continuum = n_neutral > 0
+    stable, unc = _stability(mu, err, n_neutral, res)
     settings = {"period": p, "shooting": "multiple" if multiple else "single",
                 "rtol": getattr(m, "rtol", None), "tol": tol, "max_iter": int(max_iter),
                 "transient": int(transient), "map": repr(m)}
@@ -503,7 +617,69 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
                          message, mu, err, M, stable if converged else None,
                          onsets.astype(np.int64), int(np.sum(onsets)) if onsets.size else 0,
                          float(np.min(mins)) if mins.size else math.inf, continuum, det_check,
-                         list(m.state_names), getattr(system, "name", m.name), settings, m)
+                         list(m.state_names), getattr(system, "name", m.name), settings, m,
+                         unc if converged else math.nan,
+                         np.array([float(st.time) for st in steps[:p]]) if not
+                         isinstance(m, NumbaMap) else np.zeros(0), n_neutral)
+
+
+EQUILIBRIUM_EXCURSION = 1e3
+
+
+def _equilibrium(m, points, zs, times, res: float, samples: int = 32) -> str:
+    """Why a fixed point of a Poincaré map is no periodic orbit, or "": a section point where the
+    flow (nearly) vanishes, an equilibrium on the section, returns to itself with an arbitrary
+    return time (round-off crossings). Test: the trajectory from each point over its return time
+    stays within EQUILIBRIUM_EXCURSION x the residual (scaled) of the point; a periodic orbit
+    moves away from its section point and comes back (issue 38 item 3)."""
+    for i, x in enumerate(points):
+        y, zz = m.unpack(x, zs[i], relabel=True)
+        te = m.t0 + float(times[i]) * np.arange(1, samples + 1) / samples
+        out, _, _ = m._plain(y, zz, m.t0, te[-1], t_eval=te)
+        ys = out.Y[:samples]
+        exc = float(np.max(np.abs(ys - y[None, :]) / m.scales[None, :m.n_y]))
+        if exc <= EQUILIBRIUM_EXCURSION * res:
+            f = np.empty(m.n_y)
+            m.flow.rhs(m.t0, np.ascontiguousarray(y), m.p, zz, f)
+            speed = float(np.max(np.abs(f) / m.scales[:m.n_y]))
+            what = ("an equilibrium on the section" if speed * float(times[i]) <= 1.0
+                    else "a return time of ~0")
+            return (f"{what}, no periodic orbit: the trajectory from the point "
+                    f"({', '.join(f'{v:.6g}' for v in y)}; |f| = {float(np.max(np.abs(f))):.3g}) "
+                    f"stays within {exc:.2g} (scaled) of it over the 'return' time "
+                    f"{float(times[i]):.4g}")
+    return ""
+
+
+def _deciding(mu, n_neutral: int) -> np.ndarray:
+    """mu without the n_neutral multipliers nearest 1 (the never-reset memory's)."""
+    mu = np.asarray(mu)
+    if n_neutral <= 0 or mu.size == 0:
+        return mu
+    drop = np.argsort(np.abs(mu - 1.0))[:n_neutral]
+    return np.delete(mu, drop)
+
+
+def _stability(mu, err, n_neutral: int, residual: float):
+    """(stable: True / False / None, u): the verdict of the deciding multipliers (module
+    docstring) and the uncertainty u of their largest modulus."""
+    mu, err = np.asarray(mu), np.asarray(err, dtype=float)
+    keep = np.ones(mu.size, dtype=bool)
+    if n_neutral > 0 and mu.size:
+        keep[np.argsort(np.abs(mu - 1.0))[:n_neutral]] = False
+    dec, e = mu[keep], err[keep] if err.size == mu.size else np.zeros(int(keep.sum()))
+    if dec.size == 0:
+        return None, 0.0
+    amax = float(np.max(np.abs(dec)))
+    floor = max(float(residual) if math.isfinite(residual) else math.inf, 1e-13) * max(1.0, amax)
+    u = max(float(np.max(e)) if e.size else 0.0, floor)
+    if not math.isfinite(amax):
+        return None, u
+    if amax + u < 1.0:
+        return True, u
+    if amax - u > 1.0:
+        return False, u
+    return None, u
 
 
 def _guess_points(m, guess, z0, p, transient):
@@ -637,7 +813,7 @@ def stabilised_seeds(m: NumbaMap, period: int, starts, *, lam: float | None = No
 def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
                 transient: int | None = None, seeds_per_period: int | None = None,
                 rtol: float | None = None, tol: float | None = None, grid: int = 0,
-                stabilising: int = 0, progress=None) -> list[PeriodicOrbit]:
+                stabilising: int = 0, progress=None, min_period: int = 1) -> list[PeriodicOrbit]:
     """The distinct periodic orbits of periods 1..max_period near the system's attractor.
 
     Seeds: the close returns ||P^p(x_i) - x_i|| of ``n_points`` section points after a
@@ -645,24 +821,46 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
     ``seeds_per_period`` closest per period (maps 400, flows 6), and for a map a ``grid`` x grid
     lattice over the box of the points enlarged by half its size (default 0: none), and for a map
     with ``stabilising`` > 0 the fixed points of f^p reached by the stabilising transformations of
-    Schmelcher & Diakonos (1997) from that many attractor points (:func:`stabilised_seeds`). Each seed is
+    Schmelcher & Diakonos (1997) from that many attractor points (:func:`stabilised_seeds`);
+    ``min_period``: search periods min_period..max_period only. Each seed is
     refined by :func:`periodic_orbit` (multiple shooting for p >= 2); orbits that are not of prime
     period p, or equal to one found (any cyclic shift), are dropped. Returns the converged orbits
     by period, then by decreasing max |mu|.
     """
     P = check_period(max_period, "max_period")
+    P0 = check_period(min_period, "min_period")
+    if P0 > P:
+        raise InputError(f"min_period = {min_period!r}: must be <= max_period = {P}")
     m = as_map(system, rtol)
     is_flow = not isinstance(m, NumbaMap)
-    n_points = int(n_points if n_points is not None else (120 if is_flow else 2000))
-    transient = int(transient if transient is not None else (50 if is_flow else 100))
-    spp = int(seeds_per_period if seeds_per_period is not None else (6 if is_flow else 400))
+    n_points = _whole(n_points if n_points is not None else default_points(m), "n_points", 2)
+    transient = _whole(transient if transient is not None else (50 if is_flow else 100),
+                       "transient", 0)
+    spp = _whole(seeds_per_period if seeds_per_period is not None else (6 if is_flow else 400),
+                 "seeds_per_period", 0)
+    grid = _whole(grid, "grid", 0)
+    stabilising = _whole(stabilising, "stabilising", 0)
+    if P >= n_points:
+        raise InputError(f"max_period = {P}: the close returns of period p need more than p of "
+                         f"the n_points = {n_points} section points: at most {n_points - 1} "
+                         f"(or raise n_points)")
+    check_size(P, m.n, "max_period")
+    if tol is not None and not (isinstance(tol, (int, float, np.floating)) and
+                                not isinstance(tol, bool) and math.isfinite(tol) and tol > 0):
+        raise InputError(f"tol = {tol!r}: must be a positive number")
+    if stabilising and is_flow:
+        raise InputError(f"stabilising = {stabilising}: stabilising transformations are for a "
+                         f"DiscreteMap only (a flow's seeds are the close returns)")
+    if grid and is_flow:
+        raise InputError(f"grid = {grid}: a seed grid is for a DiscreteMap only (a flow's seeds "
+                         f"are the close returns)")
+    if stabilising:
+        signed_permutations(m.n)        # refuses maps of more than 4 states
     x0, z0 = _iterate(m, m.y0, m.z0, transient)
     X, Z = section_points(m, x0, z0, n_points)
     found: list[PeriodicOrbit] = []
     dedup_tol = 1e-6
-    for p in range(1, P + 1):
-        if n_points <= p:
-            break
+    for p in range(P0, P + 1):
         d = np.array([np.max(np.abs(m.difference(X[i + p], X[i]) / m.scales))
                       for i in range(n_points - p)])
         order = np.argsort(d)
@@ -707,6 +905,11 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
         per_p.sort(key=lambda o: -o.max_abs_multiplier)
         found += per_p
     return found
+
+
+def default_points(m) -> int:
+    """find_orbits' default number of section points: 120 for a flow's map, 2000 for a map."""
+    return 2000 if isinstance(m, NumbaMap) else 120
 
 
 def _iterate(m, x, z, n):

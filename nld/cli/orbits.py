@@ -23,10 +23,14 @@ def add_parser(sub):
                     "Newton shooting with the monodromy matrix (tangent integration with "
                     "saltation at every contact event) from the state after a transient; with "
                     "--max-period, every distinct orbit of periods 1..P found from close returns "
-                    "of the section. Prints each orbit's section point, residual, Floquet "
+                    "of the section. Where Newton from the transient does not converge, --period "
+                    "searches the section's close returns for an orbit of that prime period. "
+                    "Prints each orbit's section point, residual, Floquet "
                     "multipliers (with their uncertainty from a second evaluation at 10 rtol), "
-                    "stability, contact onsets per period and the smallest approach speed at an "
-                    "onset (distance to grazing). Exit 1 when no orbit converged.")
+                    "stability (stable / unstable / neutral: within its uncertainty of |mu| = 1; "
+                    "decided by the multipliers other than the contact memory's neutral one, "
+                    "which is named), contact onsets per period and the smallest approach speed "
+                    "at an onset (distance to grazing). Exit 1 when no orbit converged.")
     scene_args(sp)
     sp.add_argument("--period", type=count_arg("--period", 1), default=1, metavar="P",
                     help="the orbit's period in revolutions (default 1)")
@@ -83,12 +87,15 @@ def add_parser(sub):
 def _orbit_line(o, scale_names) -> str:
     mu = ", ".join(f"{m.real:.6g}{m.imag:+.3g}j" if abs(m.imag) > 0 else f"{m.real:.6g}"
                    for m in o.multipliers)
-    st = {True: "stable", False: "unstable", None: "undecided"}[o.stable]
     appr = ("no onset" if not math.isfinite(o.min_approach_speed)
             else f"min approach {o.min_approach_speed:.4g} m/s")
-    extra = " (memory never reset: one of a continuum, history-dependent)" if o.continuum else ""
-    return (f"period {o.period}: {st}, max |mu| {o.max_abs_multiplier:.6g} ± "
-            f"{float(np.max(o.multiplier_error)) if o.multiplier_error.size else 0:.2g}; "
+    extra = " (history-dependent: the memory value is the history's)" if o.continuum else ""
+    u = o.multiplier_uncertainty
+    dec = o.deciding_multipliers
+    amax = float(np.max(np.abs(dec))) if dec.size else math.nan
+    return (f"period {o.period}: {o.stability_text}, "
+            f"{'max |mu| of the others' if o.continuum else 'max |mu|'} {amax:.6g} ± "
+            f"{u if math.isfinite(u) else 0:.2g}; "
             f"{o.onsets_per_period} onsets per period, {appr}; residual {o.residual:.2g} "
             f"(tolerance {o.tolerance:.2g}){extra}\n    multipliers: {mu}\n    point: "
             + ", ".join(f"{n} = {x:.9g}" for n, x in zip(scale_names, o.points[0])))
@@ -103,12 +110,12 @@ def cmd_orbits(args) -> int:
         raise InputError(f"scene {system.name!r} has no crank speed: orbits are found on the "
                          "stroboscopic map of a driven crank")
     prog = _newton_progress(args)
+    check_sizes(args, system)
     if args.max_period is not None:
         orbits = find_orbits(system, args.max_period, transient=args.transient, rtol=args.rtol,
                              progress=_search_progress(args))
     else:
-        orbits = [periodic_orbit(system, args.period, transient=args.transient, rtol=args.rtol,
-                                 progress=prog)]
+        orbits = [_orbit_or_search(system, args, prog)]
     settings = {"period": args.period, "max_period": args.max_period,
                 "transient_revs": args.transient, "rtol": args.rtol,
                 "tolerance": orbits[0].tolerance if orbits else 1e3 * args.rtol,
@@ -134,6 +141,56 @@ def cmd_orbits(args) -> int:
     return 0
 
 
+
+
+def check_sizes(args, system) -> None:
+    """--period / --max-period refused before any integration when the shooting would not fit
+    (nld.analysis.orbits.MAX_SHOOTING_UNKNOWNS) or, for --max-period, when the section it seeds
+    from is too short (find_orbits' close returns), each with the largest value that fits."""
+    from nld.analysis.orbits import check_size, default_points
+    from nld.systems.derived import as_map
+    m = as_map(system, args.rtol)
+    if args.max_period is not None:
+        n = default_points(m)
+        if args.max_period >= n:
+            raise InputError(f"--max-period = {args.max_period}: the section it seeds from has "
+                             f"{n} points and close returns of period p need more than p: at "
+                             f"most {n - 1}")
+        check_size(args.max_period, m.n, "--max-period")
+    else:
+        check_size(args.period, m.n, "--period")
+
+
+def _orbit_or_search(system, args, prog):
+    """Newton from the state after --transient revolutions; where it does not converge (a far
+    guess: an unstable orbit inside a chaotic motion), the close returns of the section for an
+    orbit of prime period --period (find_orbits, the search ``nld control`` makes for its target).
+    The orbit, or the first Newton's unconverged one with both failures in its message."""
+    import sys
+    from dataclasses import replace
+    from nld.analysis.orbits import find_orbits, periodic_orbit
+    from nld.errors import SolveError
+    try:
+        o = periodic_orbit(system, args.period, transient=args.transient, rtol=args.rtol,
+                           progress=prog)
+        if o.converged:
+            return o
+        first, why = o, o.message
+    except SolveError as e:          # the guess itself cannot be integrated
+        first, why = None, str(e)
+    if prog is not None:
+        print(f"  Newton from the transient did not converge ({why}); searching the section's "
+              f"close returns", file=sys.stderr, flush=True)
+    found = find_orbits(system, args.period, min_period=args.period, transient=args.transient,
+                        rtol=args.rtol, progress=_search_progress(args))
+    if found:
+        o = found[-1]                   # the least unstable
+        return replace(o, message=f"{o.message} from a close return of the section (Newton from "
+                                  f"the transient: {why})")
+    if first is None:
+        raise SolveError(f"no period-{args.period} orbit: Newton from the transient: {why}; close "
+                         f"returns of the section: none converged")
+    return replace(first, message=f"{why}; close returns of the section: none converged")
 
 
 def _newton_progress(args):
