@@ -229,7 +229,7 @@ class ContinuousSystem(System):
     def __repr__(self):
         per = "" if self.period is None else f", period={self.period:.6g} {self.time_unit}"
         meth = "" if self.method == "dopri5" else f", method={self.method!r}"
-        return f"ContinuousSystem({self.name!r}, n={self.n}{per}{meth})"
+        return f"{type(self).__name__}({self.name!r}, n={self.n}{per}{meth})"
 
 
 def _make_solver(rhs, events, on_event, method: str = "dopri5"):

@@ -171,13 +171,11 @@ class _FlowMap(System):
     time_unit = "iteration"
 
     def __init__(self, system, rtol: float | None):
-        from nld.settings import LYAPUNOV
+        from nld.settings import LYAPUNOV, check_rtol
         if system.is_map:
             raise InputError(f"{system.name} is already a map: a derived map needs a flow")
         self.flow = system
-        self.rtol = float(LYAPUNOV.rtol if rtol is None else rtol)
-        if not (0.0 < self.rtol < 1e-2):
-            raise InputError(f"rtol = {rtol!r}: must be in (0, 1e-2)")
+        self.rtol = float(LYAPUNOV.rtol if rtol is None else check_rtol(rtol))
         self.memory = np.array(system.memory, dtype=np.int64)
         self.n_y = system.n
         self.n = system.n + self.memory.size
