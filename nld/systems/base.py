@@ -44,7 +44,7 @@ from nld.errors import InputError
 __all__ = ["System", "Solution", "integrate"]
 
 
-@dataclass
+@dataclass(slots=True)
 class Solution:
     """One integration of a flow (:func:`integrate`), read by name.
 
@@ -112,7 +112,7 @@ class System:
     name: str = "system"
     n: int = 0
     p: np.ndarray = np.zeros(0)
-    param_names: list = []
+    param_names: tuple = ()
     z0: np.ndarray = np.zeros(0)
     t0: float = 0.0
     period: float | None = None
@@ -184,14 +184,12 @@ def integrate(system, t0: float, y, z, t_eval, *, land: bool, rtol: float, atol=
     rtol: relative tolerance; atol: absolute tolerances (default ``system.tolerance(rtol)``, the
     system's own: a scene's positions absolute, rates relative). hmax: step cap (s; default the
     system's). max_steps: step budget; max_log: event log length; event_samples: default the
-    system's. y and z are copied (the inputs are not modified). Returns a :class:`Solution`.
+    system's. z is copied, y is not written: the inputs are not modified. Returns a :class:`Solution`.
     """
-    from nld.integrators.core import as_solution
     atol = system.tolerance(rtol) if atol is None else np.ascontiguousarray(atol, dtype=float)
     zz = np.array(z, dtype=float)
-    out = as_solution(system.solve(float(t0), np.ascontiguousarray(y, dtype=float),
-                                   np.ascontiguousarray(t_eval, dtype=float), bool(land),
-                                   system.p, zz, float(rtol), atol, 0.0,
-                                   float(system.hmax if hmax is None else hmax), int(max_steps),
-                                   int(system.n_events), int(max_log), event_samples))
-    return Solution(*out, z=zz)
+    out = system.solve(float(t0), np.ascontiguousarray(y, dtype=float),
+                       np.ascontiguousarray(t_eval, dtype=float), bool(land), system.p, zz,
+                       float(rtol), atol, 0.0, float(system.hmax if hmax is None else hmax),
+                       int(max_steps), int(system.n_events), int(max_log), event_samples)
+    return Solution(*out, z=zz)       # a Solution named tuple or a user wrapper's plain 10-tuple
