@@ -39,12 +39,13 @@ from numba import njit
 
 from nld.errors import InputError, SolveError
 from nld.integrators import NATIVE_METHODS, bind, kernel_solver, method_status_message
-from nld.integrators.core import as_solution
 from nld.integrators.dopri5 import dopri5, no_events, no_on_event
 from nld.integrators.events import EVENT_SAMPLES, check_event_samples
 from nld.settings import LYAPUNOV
+from nld.systems.base import Solution, System, integrate
 
-__all__ = ["ContinuousSystem", "DiscreteMap", "SceneSystem", "advance", "iterate", "trajectory",
+__all__ = ["System", "Solution", "integrate", "ContinuousSystem", "DiscreteMap", "SceneSystem",
+           "advance", "iterate", "trajectory",
            "lorenz", "duffing", "logistic", "henon", "linear", "SYSTEM_METHODS", "check_system_method"]
 
 DEFAULT_MAX_STEPS = LYAPUNOV.max_steps
@@ -70,7 +71,7 @@ def _as_vector(x, what: str) -> np.ndarray:
 def _takes_event_samples(solve) -> bool:
     """Whether a ``solve=`` wrapper accepts event_samples as a 14th argument."""
     import inspect
-    fn = getattr(solve, "py_func", solve)
+    fn = getattr(solve, "py_func", solve)     # a numba dispatcher's Python function: introspection
     try:
         params = list(inspect.signature(fn).parameters.values())
     except (TypeError, ValueError):
@@ -90,7 +91,7 @@ def _scales(scales, n: int) -> np.ndarray:
     return s
 
 
-class ContinuousSystem:
+class ContinuousSystem(System):
     """An ODE y' = rhs(t, y) (a flow), optionally with events and a discrete state.
 
     rhs:    numba function ``rhs(t, y, p, z, dy)`` writing dy/dt into ``dy``.
@@ -141,9 +142,8 @@ class ContinuousSystem:
             the Lyapunov estimators, Poincare sections).
     """
 
-    is_map = False
-    builtin_code = None       # set for the built-in flows (cached tangent integrator)
-    angle_states = np.zeros(0, dtype=np.int64)   # states that are angles (rad): may be wrapped
+    # is_map, builtin_code (set for the built-in flows), angle_states, kernel ...: declared on
+    # nld.systems.base.System
 
     def __init__(self, rhs, y0, p=(), name: str = "system", state_names=None, scales=None,
                  period: float | None = None, *, z0=None, events=None, on_event=None,
@@ -219,10 +219,17 @@ class ContinuousSystem:
         return self._solve(t0, y0, t_eval, land, p, z, rtol, atol, h0, hmax, max_steps,
                            n_events, max_log, m)
 
+    def integrate(self, t0: float, y, z, t_eval, *, land: bool = True, rtol: float = LYAPUNOV.rtol,
+                  atol=None, hmax: float | None = None, max_steps: int = DEFAULT_MAX_STEPS,
+                  max_log: int = 1) -> Solution:
+        """:func:`nld.systems.base.integrate` of this system: a typed :class:`Solution`."""
+        return integrate(self, t0, y, z, t_eval, land=land, rtol=rtol, atol=atol, hmax=hmax,
+                         max_steps=max_steps, max_log=max_log)
+
     def __repr__(self):
         per = "" if self.period is None else f", period={self.period:.6g} {self.time_unit}"
         meth = "" if self.method == "dopri5" else f", method={self.method!r}"
-        return f"ContinuousSystem({self.name!r}, n={self.n}{per}{meth})"
+        return f"{type(self).__name__}({self.name!r}, n={self.n}{per}{meth})"
 
 
 def _make_solver(rhs, events, on_event, method: str = "dopri5"):
@@ -240,7 +247,7 @@ def _make_solver(rhs, events, on_event, method: str = "dopri5"):
 _USER_SOLVERS: dict = {}
 
 
-class DiscreteMap:
+class DiscreteMap(System):
     """A map x_{n+1} = f(x_n).
 
     f:   numba function ``f(x, p, out)`` writing the image of x into ``out``.
@@ -345,7 +352,7 @@ def restart_labels(system, t: float, y, z) -> np.ndarray:
     restart at the shifted time, where sin(omega t) is exactly 0 or of the other sign, saw no
     crossing, so the load kept the wrong sign for half a revolution (found on the excavator:
     tangent runs that sat in one-impact motions for tens of revolutions, docs/lyapunov.md)."""
-    f = getattr(system, "relabel_time_labels", None)
+    f = system.relabel_time_labels
     if f is None:
         return z
     z = np.array(z, dtype=float)
@@ -373,7 +380,7 @@ def escape_probe(system, t0: float, y, z, t_fail: float, rtol: float, atol=None,
     t_fail if the integrator returned it; otherwise the run is repeated (a failure path only)
     with outputs at t0 + (t_fail - t0)(1 - 2^-k), k = 1..52, and the last one reached is used.
     An escape: that norm is at least ESCAPE_GROWTH x max(1, |y(t0)|)."""
-    sc = np.asarray(getattr(system, "scales", np.ones(len(y))), dtype=float)
+    sc = np.asarray(system.scales, dtype=float)
     base = max(1.0, float(np.linalg.norm(np.asarray(y, float) / sc)))
     t_fail = float(t_fail)
     if y_fail is not None and np.all(np.isfinite(y_fail)):
@@ -385,12 +392,8 @@ def escape_probe(system, t0: float, y, z, t_fail: float, rtol: float, atol=None,
         te = np.ascontiguousarray(te[(te > t0) & (te < t_fail)])
         if te.size == 0:
             return None
-        atol = system.tolerance(rtol) if atol is None else atol
-        out = as_solution(system.solve(float(t0), np.ascontiguousarray(y, dtype=float), te, False,
-                                       system.p, np.array(z, dtype=float), float(rtol),
-                                       np.ascontiguousarray(atol, dtype=float), 0.0,
-                                       float(system.hmax if hmax is None else hmax),
-                                       DEFAULT_MAX_STEPS, int(system.n_events), 1))
+        out = integrate(system, t0, y, z, te, land=False, rtol=rtol, atol=atol, hmax=hmax,
+                        max_steps=DEFAULT_MAX_STEPS)
         good = [i for i in range(int(out.n_out)) if np.all(np.isfinite(out.Y[i]))]
         if not good:
             return None
@@ -424,20 +427,16 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
     if system.is_map:
         raise InputError(f"{system.name} is a map: use iterate(), not advance()")
     y = np.ascontiguousarray(y, dtype=float)
-    z = np.array(z, dtype=float)
-    z0 = z.copy()
+    z0 = np.array(z, dtype=float)
     if atol is None:
         atol = system.tolerance(rtol)
     atol = np.ascontiguousarray(atol, dtype=float)
-    t_eval = np.array([float(t1)])
-    out = system.solve(float(t0), y, t_eval, True, system.p, z, float(rtol), atol, 0.0,
-                       float(system.hmax if hmax is None else hmax), int(max_steps),
-                       int(system.n_events), 1)
-    out = as_solution(out)
+    out = integrate(system, t0, y, z0, np.array([float(t1)]), land=True, rtol=rtol, atol=atol,
+                    hmax=hmax, max_steps=max_steps)
     if out.status != 0 or out.n_out < 1:
         raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0), y, z0, rtol, atol,
                                                                 hmax))
-    return out.Y[0].copy(), z
+    return out.Y[0].copy(), out.z
 
 
 @njit
@@ -453,7 +452,7 @@ def _iterate(f, x, p, n):
 def iterate(system: DiscreteMap, x, n: int) -> np.ndarray:
     """x after n iterations of the map (a DiscreteMap, or a derived stroboscopic / Poincaré map
     of ``nld.systems.derived``, whose discrete state starts at its z0 and is carried along)."""
-    if getattr(system, "is_derived", False):
+    if system.is_derived:
         x, z = np.asarray(x, dtype=float), system.z0
         for _ in range(int(n)):
             st = system.step(x, z)
@@ -631,65 +630,126 @@ def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
 
 
 # ---------------------------------------------------------------- scenes
-def SceneSystem(scene_or_name, overrides=None, *, kernel=None,
-                method: str = "dopri5", event_samples: int | None = None,
-                y0=None) -> ContinuousSystem:
-    """A mechanism scene as a :class:`ContinuousSystem`.
+class SceneSystem(ContinuousSystem):
+    """A mechanism scene as a :class:`ContinuousSystem` (``is_scene``; fields ``scene``, ``kernel``).
 
     scene_or_name: a Scene, a built-in scene name or a TOML path; overrides as for
     ``nld.model.scene.load_scene`` (``["driver.speed=50", "joints.B.clearance=1e-4"]``).
     The system uses the kernel's rhs/events/on_event and its disk-cached ``solve``; y0, z0 from
     ``nld.run.simulate.initial_state``; scales from ``nld.run.simulate.state_scales`` (angles scaled by
     clearance / lever arm, slides by the clearance, rates by those times the crank speed);
-    period = crank period; hmax = period / 20 as in ``simulate``. Extra attributes: ``scene``,
-    ``kernel``. method: the analyses' integrator, "dopri5" (default, whatever the scene's
-    ``[scene] method``: analysis results do not change with a scene file's recommendation),
-    "dop853" or "rodas" (the kernel's disk-cached ``solve_dop853`` / ``solve_rodas``).
+    period = crank period (s); hmax = period / 20 as in ``simulate``. method: the analyses'
+    integrator, "dopri5" (default, whatever the scene's ``[scene] method``: analysis results do
+    not change with a scene file's recommendation), "dop853" or "rodas" (the kernel's
+    disk-cached ``solve_dop853`` / ``solve_rodas``).
     event_samples: as for :class:`ContinuousSystem` (default 3 interior samples per step).
     y0: a start state instead of the assembled one (for a scene the ideal assembly cannot place,
     e.g. a journal held off its bearing's centre); its discrete state from ``Kernel.init_modes``.
+    kernel: the compiled kernel to use (default ``nld.kernel.compile.compile_scene``, cached by
+    structure).
+
+    Parameters: ``parameter(key)`` / ``with_parameter(key, value)`` take a scene key
+    (``joints.B.clearance``, ``driver.speed``: the scene rebuilt at that value on the same
+    kernel, its state re-assembled), a name of the kernel's parameter layout (``loads.0.value``:
+    that entry of p) or an index of p.
     """
-    from nld.kernel.compile import compile_scene
-    from nld.run.simulate import crank_period, initial_state, state_scales, tolerances_from_scales
-    from nld.model.scene import resolve_scene
-    scene = resolve_scene(scene_or_name, overrides)
-    kern = kernel if kernel is not None else compile_scene(scene)
-    if kern.n_state == 0:
-        raise InputError(f"scene {scene.name!r} has no free coordinates (a kinematic chain): "
-                         "nothing to analyse")
-    if y0 is None:
-        y0, z0, q = initial_state(kern)
-    else:
-        y0 = np.array(y0, dtype=float).ravel()
-        if y0.size != kern.n_state:
-            raise InputError(f"y0: must have {kern.n_state} entries (the scene's state), not {y0.size}")
-        q = np.zeros(len(kern.topo.coords))
-        q[kern.topo.independent] = y0[: len(kern.topo.independent)]
-        z0 = np.zeros(kern.n_z)
-        kern.init_modes(0.0, y0, kern.params(scene), z0)
-    try:
-        period = crank_period(scene)
-    except InputError:
-        period = None
-    mod = kern.module
-    solve = kernel_solver(mod, check_system_method(method))
-    from nld.kernel.codegen import needs_onset_velocity
-    memory = [ci for ci, jn in enumerate(kern.topo.clearance)
-              if needs_onset_velocity(scene.joints[jn])]
-    sysm = ContinuousSystem(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
-                            state_scales(kern, q), period, z0=z0, events=mod.events,
-                            on_event=mod.on_event, n_events=kern.n_events, solve=solve,
-                            method=method, memory=memory, period_name="revolution",
-                            event_samples=event_samples)
-    sysm.scene = scene
-    sysm.kernel = kern
-    sysm.init_modes = kern.init_modes
-    sysm.relabel_time_labels = kern.time_labels()
-    sysm.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
-                                  if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
-                                 dtype=np.int64)
-    sysm.tolerance_fn = lambda rtol, _s=sysm.scales: tolerances_from_scales(_s, rtol)
-    return sysm
+
+    is_scene = True
+
+    def __init__(self, scene_or_name, overrides=None, *, kernel=None, method: str = "dopri5",
+                 event_samples: int | None = None, y0=None):
+        from nld.kernel.codegen import needs_onset_velocity
+        from nld.kernel.compile import compile_scene
+        from nld.model.scene import resolve_scene
+        from nld.run.simulate import crank_period, initial_state, state_scales, tolerances_from_scales
+        scene = resolve_scene(scene_or_name, overrides)
+        kern = kernel if kernel is not None else compile_scene(scene)
+        if kern.n_state == 0:
+            raise InputError(f"scene {scene.name!r} has no free coordinates (a kinematic chain): "
+                             "nothing to analyse")
+        if y0 is None:
+            y0, z0, q = initial_state(kern)
+        else:
+            y0 = np.array(y0, dtype=float).ravel()
+            if y0.size != kern.n_state:
+                raise InputError(f"y0: must have {kern.n_state} entries (the scene's state), not {y0.size}")
+            q = np.zeros(len(kern.topo.coords))
+            q[kern.topo.independent] = y0[: len(kern.topo.independent)]
+            z0 = np.zeros(kern.n_z)
+            kern.init_modes(0.0, y0, kern.params(scene), z0)
+        try:
+            period = crank_period(scene)
+        except InputError:
+            period = None
+        mod = kern.module
+        solve = kernel_solver(mod, check_system_method(method))
+        memory = [ci for ci, jn in enumerate(kern.topo.clearance)
+                  if needs_onset_velocity(scene.joints[jn])]
+        super().__init__(mod.rhs, y0, kern.params(scene), scene.name, kern.state_labels(),
+                         state_scales(kern, q), period, z0=z0, events=mod.events,
+                         on_event=mod.on_event, n_events=kern.n_events, solve=solve,
+                         method=method, memory=memory, period_name="revolution",
+                         event_samples=event_samples)
+        self.scene = scene
+        self.kernel = kern
+        self.init_modes = kern.init_modes
+        self.relabel_time_labels = kern.time_labels()
+        self.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
+                                      if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
+                                     dtype=np.int64)
+        self.tolerance_fn = lambda rtol, _s=self.scales: tolerances_from_scales(_s, rtol)
+
+    # ------------------------------------------------------------------ parameters
+    def _param_index(self, key, field: str = "param") -> int:
+        """The index of p of a name of the kernel's parameter layout or an index of p."""
+        if isinstance(key, str):
+            layout = self.kernel.layout
+            if key not in layout.index:
+                raise InputError(f"{field} = {key!r}: no such scene key or entry of the scene's "
+                                 f"parameter vector; entries: {', '.join(layout.names)}")
+            return int(layout.index[key])
+        return super()._param_index(key, field)
+
+    def _scene_value(self, key: str):
+        """The value at scene key ``key`` (a dotted path of the scene's dict), else None."""
+        from nld.model.scene import scene_to_dict
+        node = scene_to_dict(self.scene)
+        for part in key.split("."):
+            if isinstance(node, dict) and part in node:
+                node = node[part]
+            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+                node = node[int(part)]
+            else:
+                return None
+        return node
+
+    def parameter(self, key) -> float:
+        """The value of a scene key (SI), or of an entry of p (layout name or index)."""
+        if isinstance(key, str):
+            node = self._scene_value(key)
+            if node is not None:
+                try:
+                    return float(node)
+                except (TypeError, ValueError):
+                    raise InputError(f"param = {key!r}: is {node!r}, not a number") from None
+        return super().parameter(key)
+
+    def with_parameter(self, key, value):
+        """The scene at ``key`` = value: a scene key rebuilds the scene (same kernel: no
+        recompilation; InputError where the value changes the structure, e.g. a clearance of
+        0) and re-assembles its initial state; a layout name or an index sets that entry of p."""
+        if isinstance(key, str) and self._scene_value(key) is not None:
+            from nld.kernel.compile import compile_scene
+            from nld.model.scene import resolve_scene
+            value = float(value)
+            sc = resolve_scene(self.scene, [f"{key}={value!r}"])
+            kern = compile_scene(sc)
+            if kern.key != self.kernel.key:
+                raise InputError(f"{key} = {value:g} changes the scene's structure (e.g. a "
+                                 f"clearance of 0 is an ideal joint): stay within one structure")
+            return SceneSystem(sc, kernel=kern, method=self.method,
+                               event_samples=self.event_samples)
+        return super().with_parameter(key, value)
 
 
 def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
@@ -712,10 +772,11 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
         y, z = advance(system, y, z, t0, t0 + transient, rtol)
     t_eval = t0 + transient + dt * np.arange(n_samples)
     z_start = z.copy()
-    out = system.solve(float(t0 + transient), y, t_eval, False, system.p, z, float(rtol),
-                       rtol * system.scales, 0.0, float(system.hmax), DEFAULT_MAX_STEPS,
-                       int(system.n_events), 1)
-    out = as_solution(out)
+    # atol rtol * scales (every state absolute), not system.tolerance(rtol): a scene's own
+    # tolerance (positions absolute, rates relative) gives other samples, and trajectory() has
+    # always used this one (docs/architecture.md, "The System interface")
+    out = integrate(system, t0 + transient, y, z, t_eval, land=False, rtol=rtol,
+                    atol=rtol * system.scales, max_steps=DEFAULT_MAX_STEPS)
     if out.status != 0:
         raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0 + transient), y,
                                                                 z_start, rtol, rtol * system.scales))

@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nld.errors import InputError, SolveError
-from nld.integrators.core import as_solution
 from nld.integrators.tangent import N_DIAG, DG_DIV, DG_LOGDET, DG_GRAZE, crossing_diag
+from nld.systems.base import System, integrate
 from nld.systems.core import failure_message, restart_labels, wrap_angles as wrap_angles_of
 from nld.systems.section import locate_crossing
 
@@ -110,24 +110,25 @@ class SectionRun:
 def contact_events(system) -> np.ndarray:
     """Indices of the events that are contacts: a scene's penetration events (one per clearance
     joint, upward = onset); for another flow ``system.contact_events`` if set, else all events."""
-    kern = getattr(system, "kernel", None)
+    kern = system.kernel
     if kern is not None:
         return np.arange(len(kern.topo.clearance), dtype=np.int64)
-    ce = getattr(system, "contact_events", None)
+    ce = system.contact_events
     if ce is not None:
         return np.array(ce, dtype=np.int64)
-    return np.arange(int(getattr(system, "n_events", 0)), dtype=np.int64)
+    return np.arange(int(system.n_events), dtype=np.int64)
 
 
 def kern_of(system):
-    return getattr(system, "kernel", None)
+    """The compiled kernel of a scene system, else None (``System.kernel``)."""
+    return system.kernel
 
 
 def memory_pairs(system) -> list:
     """(z index, contact event index, name) of each memory entry of ``system``: a scene's
     z[ci] is reset at the onset of clearance joint ci (event ci, named ``<joint>.v_onset``);
     another flow's memory entry j by contact event j (named ``z<i>``), -1 where there is none."""
-    mem = [int(i) for i in getattr(system, "memory", ())]
+    mem = [int(i) for i in system.memory]
     kern = kern_of(system)
     if kern is not None:
         return [(i, i, f"{kern.topo.clearance[i]}.v_onset") for i in mem]
@@ -138,7 +139,7 @@ def memory_pairs(system) -> list:
 def never_reset(m, steps) -> np.ndarray:
     """Positions in the augmented state of the memory entries that no contact onset reset during
     ``steps`` (a permanent contact or no contact): neutral directions, a history, not a state."""
-    mem = getattr(m, "memory", np.zeros(0))
+    mem = m.memory
     if len(mem) == 0 or not steps or steps[0].onsets.size == 0:
         return np.zeros(0, dtype=np.int64)
     total = np.sum([st.onsets for st in steps], axis=0)
@@ -154,15 +155,15 @@ def label_entries(system) -> np.ndarray:
     """Entries of z that are discrete labels (modes, branches, contact flags): not memory and, for
     a scene, not the dependent coordinates' warm start. A periodic orbit must return to them."""
     nz = system.z0.size
-    skip = set(int(i) for i in getattr(system, "memory", ()))
-    kern = getattr(system, "kernel", None)
+    skip = set(int(i) for i in system.memory)
+    kern = system.kernel
     if kern is not None:
         nc, nd = len(kern.topo.clearance), len(kern.topo.dependent)
         skip |= set(range(nc, nc + nd))
     return np.array([i for i in range(nz) if i not in skip], dtype=np.int64)
 
 
-class _FlowMap:
+class _FlowMap(System):
     """What the two derived maps share: the augmented state and the tangent run."""
 
     is_map = True
@@ -170,15 +171,12 @@ class _FlowMap:
     time_unit = "iteration"
 
     def __init__(self, system, rtol: float | None):
-        from nld.settings import LYAPUNOV
-        if getattr(system, "is_map", False):
+        from nld.settings import LYAPUNOV, check_rtol
+        if system.is_map:
             raise InputError(f"{system.name} is already a map: a derived map needs a flow")
         self.flow = system
-        self.rtol = float(LYAPUNOV.rtol if rtol is None else rtol)
-        if not (0.0 < self.rtol < 1e-2):
-            raise InputError(f"rtol = {rtol!r}: must be in (0, 1e-2)")
-        self.memory = np.array(getattr(system, "memory", np.zeros(0, dtype=np.int64)),
-                               dtype=np.int64)
+        self.rtol = float(LYAPUNOV.rtol if rtol is None else check_rtol(rtol))
+        self.memory = np.array(system.memory, dtype=np.int64)
         self.n_y = system.n
         self.n = system.n + self.memory.size
         self.p = system.p
@@ -194,7 +192,7 @@ class _FlowMap:
             self.memory_events = np.array([j if j < self.contacts.size else -1
                                            for j in range(self.memory.size)], dtype=np.int64)
         mem_names = [f"z{i}" for i in self.memory]
-        kern = getattr(system, "kernel", None)
+        kern = system.kernel
         if kern is not None:
             mem_names = [f"{kern.topo.clearance[i]}.v_onset" for i in self.memory]
         self.state_names = list(system.state_names) + mem_names
@@ -204,7 +202,16 @@ class _FlowMap:
         # its bearing: a stiff contact, tiny steps) fails in bounded time instead of running for
         # minutes; the Newton treats the failure as a rejected trial
         self.typical_steps = 0
-        self.angle_states = getattr(system, "angle_states", np.zeros(0, dtype=np.int64))
+        self.angle_states = system.angle_states
+
+    # ------------------------------------------------------------------ parameters
+    def parameter(self, key) -> float:
+        """The flow's parameter ``key`` (``System.parameter`` of the flow)."""
+        return self.flow.parameter(key)
+
+    def with_parameter(self, key, value):
+        """The same map (periods or section, rtol) of the flow at ``key`` = value."""
+        return self._of(self.flow.with_parameter(key, value))
 
     def _memory_scales(self) -> np.ndarray:
         """A scale for each memory entry (an approach velocity, m/s): the largest rate scale of a
@@ -212,8 +219,7 @@ class _FlowMap:
         if self.memory.size == 0:
             return np.zeros(0)
         s = self.flow.scales
-        v = float(np.max(s[s.size // 2:])) if getattr(self.flow, "kernel", None) is not None \
-            else 1.0
+        v = float(np.max(s[s.size // 2:])) if self.flow.is_scene else 1.0
         return np.full(self.memory.size, v)
 
     # ------------------------------------------------------------------ augmented state
@@ -231,7 +237,7 @@ class _FlowMap:
         x = np.asarray(x, dtype=float).ravel()
         z = np.array(z, dtype=float)
         y = x[:self.n_y].copy()
-        init = getattr(self.flow, "init_modes", None)
+        init = self.flow.init_modes
         if relabel and init is not None:
             init(self.t0, np.ascontiguousarray(y), self.flow.p, z)
         # the map restarts at t0 whatever time x was reached at: the time's labels from y
@@ -263,10 +269,8 @@ class _FlowMap:
         atol = sysm.tolerance(self.rtol)
         z = np.array(z, dtype=float)
         te = np.array([float(t1)]) if t_eval is None else np.asarray(t_eval, dtype=float)
-        out = as_solution(sysm.solve(float(t0), np.ascontiguousarray(y, dtype=float), te,
-                                     t_eval is None, sysm.p, z, self.rtol, atol, 0.0,
-                                     float(sysm.hmax), self.step_budget(), int(sysm.n_events),
-                                     _MAX_LOG))
+        out = integrate(sysm, t0, y, z, te, land=t_eval is None, rtol=self.rtol, atol=atol,
+                        max_steps=self.step_budget(), max_log=_MAX_LOG)
         if out.status != 0 or out.n_out < te.size:
             raise SolveError(f"{sysm.name}: " + failure_message(sysm, out, float(t0), y, z,
                                                                   self.rtol, atol)
@@ -281,7 +285,7 @@ class _FlowMap:
             onsets[j] = int(np.count_nonzero((k == e) & (d > 0)))
         if out.n_ev >= _MAX_LOG:
             onsets[:] = -1          # the log overflowed: unknown
-        return out, z, onsets
+        return out, out.z, onsets
 
     def _tangent(self, y, z, t0, t1, divergence: bool = False):
         """(y(t1), z(t1), M, step info) from the tangent integrator, vectors from the identity."""
@@ -338,7 +342,10 @@ class StroboscopicMap(_FlowMap):
         self.T = float(system.period) * self.periods
         self.t0 = float(system.t0)
         self.name = f"stroboscopic map of {system.name}"
-        self.period_name = getattr(system, "period_name", "forcing period")
+        self.period_name = system.period_name
+
+    def _of(self, flow) -> "StroboscopicMap":
+        return StroboscopicMap(flow, self.periods, self.rtol)
 
     def step(self, x, z=None, *, jacobian: bool = False, divergence: bool = False,
              relabel: bool = False) -> MapStep:
@@ -418,10 +425,8 @@ class StroboscopicMap(_FlowMap):
         # time restarts at t0 after the transient (the forcing is T-periodic)
         k0 = 0 if start else 1
         te = t0 + self.T * np.arange(k0, n + k0)
-        out = as_solution(sysm.solve(float(t0), np.ascontiguousarray(y, dtype=float), te, False,
-                                     sysm.p, np.array(zz, dtype=float), self.rtol, atol, 0.0,
-                                     float(sysm.hmax), max_steps, int(sysm.n_events),
-                                     _MAX_LOG + 400 * n))
+        out = integrate(sysm, t0, y, zz, te, land=False, rtol=self.rtol, atol=atol,
+                        max_steps=max_steps, max_log=_MAX_LOG + 400 * n)
         m = int(out.n_out)
         onsets = self._count_onsets(out.ev_k[:out.n_ev], out.ev_dir[:out.n_ev])
         ok = out.status == 0 and m == n
@@ -582,6 +587,10 @@ class PoincareMap(_FlowMap):
                                                       for i in range(system.n)]))
         self.plane_basis = q[:, 1:system.n]
 
+    def _of(self, flow) -> "PoincareMap":
+        return PoincareMap(flow, self.normal, self.offset, self.direction, dt=self.dt,
+                           t_min=self.t_min, t_max=self.t_max, rtol=self.rtol)
+
     def _g(self, y):
         return float(self.normal @ y) - self.offset
 
@@ -638,7 +647,7 @@ class PoincareMap(_FlowMap):
                 f"offset={self.offset:g}, direction={self.direction:+d})")
 
 
-class NumbaMap:
+class NumbaMap(System):
     """A :class:`~nld.systems.DiscreteMap` in the derived maps' interface (no discrete state):
     ``step(x, jacobian=True)`` gives f(x) and its Jacobian (the map's ``jacobian`` or central
     finite differences, steps 1e-6 * scales)."""
@@ -664,6 +673,13 @@ class NumbaMap:
         self.rtol = 0.0
         self._tmp = np.empty(self.n)
         self._checked = False
+
+    def parameter(self, key) -> float:
+        return self.system.parameter(key)
+
+    def with_parameter(self, key, value):
+        """The map at ``key`` = value (``System.with_parameter`` of the DiscreteMap)."""
+        return NumbaMap(self.system.with_parameter(key, value))
 
     def pack(self, y, z=None):
         return np.asarray(y, dtype=float).ravel().copy()
@@ -711,9 +727,9 @@ def as_map(system, rtol: float | None = None):
     (:class:`NumbaMap`), a forced flow's one-period :class:`StroboscopicMap` at ``rtol``."""
     if isinstance(system, (_FlowMap, NumbaMap)):
         return system
-    if getattr(system, "is_map", False):
+    if system.is_map:
         return NumbaMap(system)
-    if getattr(system, "period", None) is None:
+    if system.period is None:
         raise InputError(f"{system.name} is an autonomous flow: give a PoincareMap(system, normal, "
                          f"offset) to find its periodic orbits")
     return StroboscopicMap(system, 1, rtol)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from nld.errors import SolveError
-from nld.integrators.core import as_solution
+from nld.systems.base import integrate
 
 __all__ = ["land", "locate_crossing", "XTOL_REL"]
 
@@ -29,15 +29,12 @@ def land(system, y, z, t0: float, t1: float, rtol: float, atol, hmax: float, max
     inputs are not modified). SolveError when the integration fails."""
     if t1 <= t0:
         return np.array(y, dtype=float), np.array(z, dtype=float)
-    zz = np.array(z, dtype=float)
-    out = as_solution(system.solve(float(t0), np.ascontiguousarray(y, dtype=float),
-                                   np.array([float(t1)]), True, system.p, zz, float(rtol), atol,
-                                   0.0, float(hmax), int(max_steps), int(system.n_events),
-                                   int(max_log)))
+    out = integrate(system, t0, y, z, np.array([float(t1)]), land=True, rtol=rtol, atol=atol,
+                    hmax=hmax, max_steps=max_steps, max_log=max_log)
     if out.status < 0 or out.n_out < 1:
-        raise SolveError(f"{getattr(system, 'name', 'system')}: the landing integration from "
+        raise SolveError(f"{system.name}: the landing integration from "
                          f"t = {t0:.9g} s to {t1:.9g} s failed (status {int(out.status)})")
-    return out.Y[0].copy(), zz
+    return out.Y[0].copy(), out.z
 
 
 def locate_crossing(system, g, t0: float, y0, z0, t1: float, *, rtol: float, atol=None,

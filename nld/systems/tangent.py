@@ -184,6 +184,8 @@ def _autodiff_user(func, name: str, active, outputs, frozen=()):
     except (AutodiffError, OSError, TypeError, SyntaxError, IndexError):
         return None
     import math as _m
+    # a function's globals (a numba dispatcher's through py_func): introspection, not a probe
+    # of what a system is
     glob = dict(getattr(getattr(func, "py_func", func), "__globals__", {}))
     glob.update(np=np, math=_m)
     try:
@@ -196,7 +198,7 @@ def _autodiff_user(func, name: str, active, outputs, frozen=()):
 def tangent_functions(system):
     """(solve_tangent, how) for a continuous system: the integrator with its JVPs compiled in,
     and a word on where the Jacobian comes from ("generated", "analytic", "autodiff", "fd")."""
-    cached = getattr(system, "_tangent_solver", None)
+    cached = system._tangent_solver
     if cached is not None:
         return cached
     if system.is_map:
@@ -204,7 +206,7 @@ def tangent_functions(system):
     # a user system's solver is compiled once per set of functions, not per system: systems made
     # from the same rhs (a parameter sweep) share it (each compilation takes tens of seconds)
     key = None
-    if getattr(system, "kernel", None) is None and getattr(system, "builtin_code", None) is None:
+    if system.kernel is None and system.builtin_code is None:
         key = (system.rhs, system.jacobian, system.jvp,
                system.events if system.n_events > 0 else None,
                system.on_event if system.n_events > 0 else None,
@@ -212,10 +214,11 @@ def tangent_functions(system):
         if key in _USER_TANGENT:
             system._tangent_solver = _USER_TANGENT[key]
             return system._tangent_solver
-    kern = getattr(system, "kernel", None)
+    kern = system.kernel
+    # a kernel module generated without its tangent integrator (an older disk cache) has none
     if kern is not None and hasattr(kern.module, "solve_tangent"):
         res = (kern.module.solve_tangent, "generated")
-    elif getattr(system, "builtin_code", None) is not None:
+    elif system.builtin_code is not None:
         res = (_BuiltinTangent(system.builtin_code), "analytic")
     else:
         how = system.jvp
@@ -282,7 +285,7 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
     out = solve(float(t0), y, z, W, Wz, marks, system.p, float(rtol), atol, system.scales,
                 float(h0), float(system.hmax), int(max_steps), int(system.n_events),
                 bool(tangent_err), bool(want_div), dg, logs,
-                int(getattr(system, "event_samples", EVENT_SAMPLES)), bool(orthonormalise))
+                int(system.event_samples), bool(orthonormalise))
     status, t_reached, y_out, n_done, stats, h_next = out
     if status not in (0, 1):
         from nld.integrators.core import Solution

@@ -1,0 +1,195 @@
+"""What a system is: the interface every analysis takes, written down once.
+
+In the style of DynamicalSystemsBase.jl's ``DynamicalSystem`` (one interface -- current state,
+current parameters, ``set_parameter!``, ``step!`` -- that core and derived systems all implement,
+so that every analysis takes any of them; Datseris 2018), a nld system is an instance of
+:class:`System`. Its implementations:
+
+* ``nld.systems.core.ContinuousSystem`` -- a flow (user ODE, built-in Lorenz / Duffing / linear),
+  with events and a discrete state;
+* ``nld.systems.core.SceneSystem`` -- a mechanism scene compiled to its kernel (a
+  ContinuousSystem subclass that also carries ``scene`` and ``kernel``);
+* ``nld.systems.core.DiscreteMap`` -- a map given by a numba function;
+* ``nld.systems.derived.StroboscopicMap`` / ``PoincareMap`` -- the maps derived from a flow, and
+  ``NumbaMap`` -- a DiscreteMap in the derived maps' step interface.
+
+Every field below is declared on :class:`System` with a default, so an analysis reads
+``system.kernel`` or ``system.memory`` directly (no ``getattr`` probe); what kind of system it is,
+is a declared field (``is_map``, ``is_derived``, ``is_scene``) or an ``isinstance`` test.
+
+A flow is integrated through ONE call site, :func:`integrate` (it builds the integrator's
+positional call from the system: its ``solve``, parameters, event count, step cap, event samples
+and its own tolerance ``system.tolerance(rtol)``) and returns one typed result,
+:class:`Solution`, whose fields are read by name. A map is stepped by ``step(x, z)``, which
+returns a ``nld.systems.derived.MapStep``.
+
+Parameters are addressed one way: ``system.parameter(key)`` and ``system.with_parameter(key,
+value)`` (the system at another value, sharing the compiled functions: no recompilation), with
+``key`` an index of ``p``, a name of ``param_names`` or, for a scene, a scene key such as
+``joints.B.clearance`` / ``driver.speed`` or a name of the kernel's parameter layout such as
+``loads.0.value`` (docs/architecture.md, "The System interface").
+
+Units: SI. The time of a flow is in ``time_unit`` (s); a map's time is the iteration count.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from nld.errors import InputError
+
+__all__ = ["System", "Solution", "integrate"]
+
+
+@dataclass(slots=True)
+class Solution:
+    """One integration of a flow (:func:`integrate`), read by name.
+
+    status:  the integrator's status (0 success; ``nld.integrators.core`` names the others).
+    t:       the time reached (s).
+    Y:       (len(t_eval), n) states at t_eval (SI); NaN rows where not reached.
+    n_out:   rows of Y filled.
+    stats:   int64 counters [steps, accepted, rejected, rhs evaluations, events (, Jacobians, LUs)].
+    ev_t, ev_k, ev_dir: the event log (time s, event index, direction +1 up / -1 down), n_ev
+             entries.
+    n_ev:    events logged.
+    Z:       (len(t_eval), nz) discrete state in force at each output row.
+    z:       the discrete state where the integration stopped (a copy of the start's, updated).
+    """
+    status: int
+    t: float
+    Y: np.ndarray
+    n_out: int
+    stats: np.ndarray
+    ev_t: np.ndarray
+    ev_k: np.ndarray
+    ev_dir: np.ndarray
+    n_ev: int
+    Z: np.ndarray
+    z: np.ndarray
+
+    @property
+    def ok(self) -> bool:
+        """The integration succeeded and filled every output row."""
+        return int(self.status) == 0 and int(self.n_out) == self.Y.shape[0]
+
+
+class System:
+    """The interface of every nld system (module docstring). Fields, with their defaults:
+
+    name:          label used in results and messages.
+    n:             dimension: the number of (continuous) states; ``dimension`` is the same.
+    y0:            initial state (n values, SI: m, rad, m/s, rad/s for a scene).
+    z0:            initial discrete state (contact modes, memory, branches; empty if none).
+    t0:            the time of y0 (s); analyses start there.
+    p:             parameter vector (float64, read only by the compiled functions).
+    param_names:   names of the entries of p (empty: address them by index).
+    scales:        per-state absolute scales (units of each state): absolute tolerance
+                   ``rtol * scales`` by default, separations measured as ||dy / scales||.
+    period:        forcing period (s) of a forced flow (a scene: the crank period), else None.
+    period_name:   what one period is called ("forcing period", "revolution", "iteration").
+    period_index:  index of p that sets the period (the forcing frequency, rad/s), else None.
+    state_names:   names of the n states.
+    angle_states:  indices of the states that are angles (rad), wrapped by whole turns.
+    memory:        indices of z that are memory states (a contact law's approach velocity, m/s).
+    contact_events: indices of the events that are contacts (None: for a scene its clearance
+                   joints, for another flow every event; ``nld.systems.derived.contact_events``).
+    n_events:      number of event functions of a flow (0 for a map).
+    time_unit:     unit of the time ("s" for a flow, "iteration" for a map).
+    is_map:        a map (stepped), not a flow (integrated).
+    is_derived:    a map derived from a flow (stroboscopic or Poincaré).
+    is_scene:      a mechanism scene (``scene`` and ``kernel`` are set).
+    scene, kernel: the Scene and its compiled Kernel (None unless is_scene).
+    builtin_code:  the model code of a built-in system (shared cached integrator), else None.
+    relabel_time_labels: ``f(t, y, p, z)`` setting the labels of z that time decides (a scene's
+                   switched loads), else None (``nld.systems.core.restart_labels``).
+    init_modes:    ``init_modes(t, y, p, z)`` setting z's labels from (t, y), else None.
+    """
+
+    name: str = "system"
+    n: int = 0
+    p: np.ndarray = np.zeros(0)
+    param_names: tuple = ()
+    z0: np.ndarray = np.zeros(0)
+    t0: float = 0.0
+    period: float | None = None
+    period_name: str          # (no default: a DiscreteMap has none; the analyses' defaults apply)
+    period_index: int | None = None
+    angle_states: np.ndarray = np.zeros(0, dtype=np.int64)
+    memory: np.ndarray = np.zeros(0, dtype=np.int64)
+    contact_events = None
+    n_events: int = 0
+    time_unit: str = "s"
+    is_map: bool = False
+    is_derived: bool = False
+    is_scene: bool = False
+    scene = None
+    kernel = None
+    builtin_code: int | None = None
+    relabel_time_labels = None
+    init_modes = None
+    _tangent_solver = None        # the tangent integrator, cached by nld.systems.tangent
+
+    @property
+    def dimension(self) -> int:
+        """The number of continuous states (DynamicalSystemsBase's ``dimension``)."""
+        return int(self.n)
+
+    # ------------------------------------------------------------------ parameters
+    def _param_index(self, key, field: str = "param") -> int:
+        """The index of p that ``key`` (a name of param_names or an index) addresses."""
+        names = list(self.param_names or [])
+        if isinstance(key, str):
+            if key not in names:
+                raise InputError(f"{field} = {key!r}: no such parameter of {self.name}; parameters: "
+                                 f"{', '.join(names) if names else '(unnamed: give an index of p)'}")
+            return names.index(key)
+        if isinstance(key, (int, np.integer)) and not isinstance(key, bool) \
+                and 0 <= key < self.p.size:
+            return int(key)
+        raise InputError(f"{field} = {key!r}: a parameter name or an index of p "
+                         f"(0..{self.p.size - 1})")
+
+    def parameter(self, key) -> float:
+        """The value of the parameter ``key`` (a name of param_names or an index of p)."""
+        return float(self.p[self._param_index(key)])
+
+    def with_parameter(self, key, value):
+        """This system with parameter ``key`` at ``value`` (a shallow copy sharing the compiled
+        functions and caches; p copied). Setting ``period_index`` (the forcing frequency, rad/s)
+        also sets the period 2 pi / value and the step cap period / 20."""
+        i = self._param_index(key)
+        value = float(value)
+        s = copy.copy(self)
+        s.p = self.p.copy()
+        s.p[i] = value
+        if self.period_index is not None and self.period_index == i and self.period is not None:
+            if not value > 0:
+                raise InputError(f"{key} = {value!r}: the forcing frequency must be > 0")
+            s.period = 2.0 * math.pi / value
+            s.hmax = s.period / 20.0
+        return s
+
+
+def integrate(system, t0: float, y, z, t_eval, *, land: bool, rtol: float, atol=None,
+              hmax: float | None = None, max_steps: int, max_log: int = 1,
+              event_samples: int | None = None) -> Solution:
+    """Integrate the flow ``system`` from (t0, y, z) with its integrator (``system.solve``):
+    the one place in nld.systems that builds the integrator's call.
+
+    t_eval: output times (s, increasing); ``land``: land exactly on them (else dense output).
+    rtol: relative tolerance; atol: absolute tolerances (default ``system.tolerance(rtol)``, the
+    system's own: a scene's positions absolute, rates relative). hmax: step cap (s; default the
+    system's). max_steps: step budget; max_log: event log length; event_samples: default the
+    system's. z is copied, y is not written: the inputs are not modified. Returns a :class:`Solution`.
+    """
+    atol = system.tolerance(rtol) if atol is None else np.ascontiguousarray(atol, dtype=float)
+    zz = np.array(z, dtype=float)
+    out = system.solve(float(t0), np.ascontiguousarray(y, dtype=float),
+                       np.ascontiguousarray(t_eval, dtype=float), bool(land), system.p, zz,
+                       float(rtol), atol, 0.0, float(system.hmax if hmax is None else hmax),
+                       int(max_steps), int(system.n_events), int(max_log), event_samples)
+    return Solution(*out, z=zz)       # a Solution named tuple or a user wrapper's plain 10-tuple
