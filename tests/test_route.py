@@ -19,9 +19,20 @@ def _pts(values, lam, verdicts, periods):
 
 
 def _orbit(mu, err=1e-6, continuum=False, onsets=0):
+    """A stand-in orbit with the attributes the route reads, its stability by nld's one rule
+    (nld.analysis.orbits.multiplier_stability)."""
+    from nld.analysis.orbits import multiplier_stability
     mu = np.asarray(mu, dtype=complex)
-    return SimpleNamespace(multipliers=mu, multiplier_error=np.full(mu.size, err),
-                           continuum=continuum, onsets_per_period=onsets, period=1,
+    e = np.full(mu.size, err)
+    n_neutral = 1 if continuum else 0
+    stable, u = multiplier_stability(mu, e, n_neutral, 0.0)
+    keep = np.ones(mu.size, dtype=bool)
+    if continuum:
+        keep[int(np.argmin(np.abs(mu - 1.0)))] = False
+    return SimpleNamespace(multipliers=mu, multiplier_error=e, continuum=continuum,
+                           memory_neutral=continuum, deciding_multipliers=mu[keep],
+                           stability={True: "stable", False: "unstable", None: "neutral"}[stable],
+                           multiplier_uncertainty=u, onsets_per_period=onsets, period=1,
                            max_abs_multiplier=float(np.max(np.abs(mu))))
 
 

@@ -630,12 +630,9 @@ def _polish(ctx, run: _Run, p: int):
         return None
     if prime_period(m, orb.points, _orbit_tol(orb)) != p:
         return None
-    if getattr(orb, "memory_neutral", orb.continuum):
+    if orb.memory_neutral:
         return None         # a member of a permanent-contact continuum: that class, not this
-    stability = getattr(orb, "stability", None)
-    if stability is not None and stability != "stable":
-        return None
-    if stability is None and orb.stable is False:
+    if orb.stability != "stable":
         return None
     return orb
 
@@ -889,11 +886,11 @@ def _orbit_lambda(orb):
     if amu.size == 0:
         return math.nan, math.nan, math.nan
     consider = amu
-    if getattr(orb, "memory_neutral", getattr(orb, "continuum", False)) and amu.size > 1:
-        consider = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
+    if orb.memory_neutral and amu.size > 1:
+        consider = np.abs(orb.deciding_multipliers)
     mx = float(np.max(consider))
-    err = getattr(orb, "multiplier_uncertainty", None)
-    if err is None or not math.isfinite(err):
+    err = orb.multiplier_uncertainty
+    if not math.isfinite(err):
         e = np.asarray(orb.multiplier_error, dtype=float)
         err = float(np.max(e)) if e.size else 0.0
     lam = math.log(mx) / orb.period if mx > 0 else -math.inf
@@ -1096,7 +1093,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             lt = ut = math.nan
         lam, unc, err = _orbit_lambda(orb)
         ons = int(orb.onsets_per_period) if orb.onsets.size else None
-        stab = getattr(orb, "stability", None) or ("stable" if orb.stable else "undecided")
+        stab = orb.stability
         attractors.append(Attractor(
             id=0, kind="periodic", period=int(orb.period), count=len(g),
             fraction=len(g) / starts, fraction_interval=wilson_interval(len(g), starts),

@@ -212,36 +212,18 @@ class Family:
 
 
 def orbit_stability(o: PeriodicOrbit) -> str:
-    """"stable", "unstable" or "neutral" for a branch row: ``PeriodicOrbit.stability`` where the
-    orbit has it (nld.analysis.orbits), else the same rule here: the deciding multipliers (a
-    continuum's neutral memory multiplier left out), mu_max their largest modulus and u its
-    uncertainty (the largest ``multiplier_error``, at least the residual times max(1, mu_max));
-    "stable" only when mu_max + u < 1, "unstable" when mu_max - u > 1, else "neutral": no row
-    calls an orbit stable whose largest multiplier is within its uncertainty of the unit circle."""
-    st = getattr(type(o), "stability", None)
-    if st is not None:
-        s = o.stability
-        return "neutral" if s == "unconverged" else s
-    mu = _critical(o)
-    if not o.converged or mu.size == 0:
-        return "neutral"
-    amax = float(np.max(np.abs(mu)))
-    err = np.asarray(o.multiplier_error, dtype=float)
-    res = o.residual if math.isfinite(o.residual) else math.inf
-    u = max(float(np.max(err)) if err.size else 0.0, max(res, 1e-13) * max(1.0, amax))
-    if amax + u < 1.0:
-        return "stable"
-    if amax - u > 1.0:
-        return "unstable"
-    return "neutral"
+    """"stable", "unstable" or "neutral" for a branch row: ``PeriodicOrbit.stability``
+    (nld.analysis.orbits.multiplier_stability: the deciding multipliers, a continuum's neutral
+    memory multiplier left out, against 1 and their uncertainty), an unconverged orbit "neutral":
+    no row calls an orbit stable whose largest multiplier is within its uncertainty of the unit
+    circle."""
+    s = o.stability
+    return "neutral" if s == "unconverged" else s
 
 
 def _uncertainty(o: PeriodicOrbit) -> float:
-    u = getattr(o, "multiplier_uncertainty", None)
-    if u is not None and math.isfinite(u):
-        return float(u)
-    err = np.asarray(o.multiplier_error, dtype=float)
-    return float(np.max(err)) if err.size else 0.0
+    u = o.multiplier_uncertainty
+    return float(u) if math.isfinite(u) else 0.0
 
 
 @dataclass
@@ -358,11 +340,9 @@ class Branch:
 
 
 def _critical(o: PeriodicOrbit) -> np.ndarray:
-    """The multipliers that decide stability: a continuum's neutral memory multiplier dropped."""
-    mu = o.multipliers
-    if o.continuum and mu.size:
-        mu = np.delete(mu, int(np.argmin(np.abs(mu - 1.0))))
-    return mu
+    """The multipliers that decide stability: a continuum's neutral memory multipliers dropped
+    (``PeriodicOrbit.deciding_multipliers``)."""
+    return o.deciding_multipliers
 
 
 def _tests(o: PeriodicOrbit) -> dict:

@@ -609,7 +609,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
             if ci < onsets.size and onsets[ci] == 0:
                 n_neutral += 1
     continuum = n_neutral > 0
-    stable, unc = _stability(mu, err, n_neutral, res)
+    stable, unc = multiplier_stability(mu, err, n_neutral, res)
     settings = {"period": p, "shooting": "multiple" if multiple else "single",
                 "rtol": getattr(m, "rtol", None), "tol": tol, "max_iter": int(max_iter),
                 "transient": int(transient), "map": repr(m)}
@@ -660,9 +660,10 @@ def _deciding(mu, n_neutral: int) -> np.ndarray:
     return np.delete(mu, drop)
 
 
-def _stability(mu, err, n_neutral: int, residual: float):
+def multiplier_stability(mu, err, n_neutral: int, residual: float):
     """(stable: True / False / None, u): the verdict of the deciding multipliers (module
-    docstring) and the uncertainty u of their largest modulus."""
+    docstring) and the uncertainty u of their largest modulus. The one stability rule of nld:
+    ``PeriodicOrbit.stability``, branch rows, the census and the route all read it."""
     mu, err = np.asarray(mu), np.asarray(err, dtype=float)
     keep = np.ones(mu.size, dtype=bool)
     if n_neutral > 0 and mu.size:

@@ -40,6 +40,8 @@ import time
 import numpy as np
 import pandas as pd
 
+from nld.analysis.continuation import orbit_stability
+
 __all__ = ["route_to_chaos", "linked_branch", "orbit_stability", "branch_ends", "agreement",
            "sweep_regimes", "route_table", "route_sentence", "route_figure", "orbit_rows",
            "route_record", "route_tables", "ROUTE_COLUMNS", "TRANSITIONS", "REGIMES"]
@@ -57,47 +59,23 @@ _SHORT = {"period_doubling": "PD", "fold": "fold", "neimark_sacker": "NS", "graz
 
 
 # ---------------------------------------------------------------------------------------------------
-# adapters: the names of nld.analysis.orbits / continuation that the route relies on, with a
-# fallback to what older versions have (docs: /work notes CONTRACT)
+# the orbit's stability words (one rule: nld.analysis.orbits.multiplier_stability)
 
 
 def _critical_multipliers(o) -> np.ndarray:
-    mu = np.asarray(o.multipliers)
-    if getattr(o, "continuum", False) and mu.size:
-        mu = np.delete(mu, int(np.argmin(np.abs(mu - 1.0))))
-    return mu
+    """The multipliers that decide stability (the memory's neutral ones left out)."""
+    return np.asarray(o.deciding_multipliers)
 
 
 def multiplier_uncertainty(o) -> float:
-    """The orbit's uncertainty of max |mu| (``PeriodicOrbit.multiplier_uncertainty`` where it
-    exists, else the largest difference of the multipliers at rtol and 10 rtol)."""
-    u = getattr(o, "multiplier_uncertainty", None)
-    if u is not None and not callable(u):
-        return float(u)
-    err = np.asarray(getattr(o, "multiplier_error", np.zeros(0)))
-    return float(np.max(err)) if err.size else 0.0
-
-
-def orbit_stability(o) -> str:
-    """"stable", "unstable" or "neutral" (``PeriodicOrbit.stability`` where it exists): the largest
-    multiplier other than the contact memory's neutral one against 1 and its uncertainty."""
-    s = getattr(o, "stability", None)
-    if isinstance(s, str):
-        return s
-    mu = _critical_multipliers(o)
-    if mu.size == 0:
-        return "neutral"
-    m = float(np.max(np.abs(mu)))
-    u = multiplier_uncertainty(o)
-    if abs(m - 1.0) <= u:
-        return "neutral"
-    return "stable" if m < 1.0 else "unstable"
+    """The orbit's uncertainty of max |mu| (``PeriodicOrbit.multiplier_uncertainty``)."""
+    u = float(o.multiplier_uncertainty)
+    return u if math.isfinite(u) else 0.0
 
 
 def memory_neutral(o) -> bool:
     """The orbit has the contact memory's neutral multiplier (one of a continuum)."""
-    v = getattr(o, "memory_neutral", None)
-    return bool(v) if v is not None and not callable(v) else bool(getattr(o, "continuum", False))
+    return bool(o.memory_neutral)
 
 
 def orbit_class(o) -> str:
@@ -113,9 +91,9 @@ def orbit_class(o) -> str:
 
 def branch_ends(br) -> list[dict]:
     """How each end of a branch ends: dicts ``direction`` (-1 low, +1 high), ``value``,
-    ``reason`` and ``detail`` (``Branch.ends`` where it exists, else from the branch's message
-    and its extreme values)."""
-    ends = getattr(br, "ends", None)
+    ``reason`` and ``detail`` (``Branch.ends``; a branch joined by :func:`linked_branch` keeps
+    them in its settings; else from the branch's message and its extreme values)."""
+    ends = br.ends
     if not ends and (br.settings or {}).get("ends"):
         return [dict(e) for e in br.settings["ends"]]
     if ends:
@@ -146,11 +124,8 @@ def _continue(system, orbit, param, values, *, method, max_points, locate_tol):
     lo, hi = float(min(values)), float(max(values))
     if method == "arclength":
         try:
-            try:
-                br = continue_orbit(system, orbit, param, range=(lo, hi), method="arclength",
-                                    max_points=max_points, locate_tol=locate_tol)
-            except TypeError:          # a continue_orbit without these options
-                br = continue_orbit(system, orbit, param, range=(lo, hi))
+            br = continue_orbit(system, orbit, param, range=(lo, hi), method="arclength",
+                                max_points=max_points, locate_tol=locate_tol)
             if len(br.values) >= 2:
                 return br
         except SolveError:
