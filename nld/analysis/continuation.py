@@ -540,6 +540,15 @@ def _check_owner(fam, orbit: PeriodicOrbit, system, param, tol):
                          f"orbit's own parameter value")
 
 
+def _range_pair(range) -> tuple[float, float]:
+    """(a, b) of a ``range`` argument, or an InputError naming it."""
+    try:
+        a, b = (float(x) for x in range)
+    except (TypeError, ValueError):
+        raise InputError(f"range = {range!r}: give (a, b)") from None
+    return a, b
+
+
 def continue_orbit(system, orbit: PeriodicOrbit, param, values=None, *, range=None,
                    method: str | None = None, step: float | None = None, max_points: int = 200,
                    tol: float | None = None, locate: bool = True, locate_tol: float | None = None,
@@ -600,10 +609,7 @@ def continue_orbit(system, orbit: PeriodicOrbit, param, values=None, *, range=No
             rng = check_values(values, v0, param)
             a, b = float(rng[0]), float(rng[-1])
         else:
-            try:
-                a, b = (float(x) for x in range)
-            except (TypeError, ValueError):
-                raise InputError(f"range = {range!r}: give (a, b)") from None
+            a, b = _range_pair(range)
             check_values([a, b], v0, param)
         fam.check(a, "range:")
         fam.check(b, "range:")
@@ -1469,10 +1475,7 @@ def follow_cascade(system, branch: Branch, param, *, max_period: int = 8, range=
                                                branch.settings["values"][-1]]
         a, b = float(rng[0]), float(rng[-1])
     else:
-        try:
-            a, b = (float(x) for x in range)
-        except (TypeError, ValueError):
-            raise InputError(f"range = {range!r}: give (a, b)") from None
+        a, b = _range_pair(range)
     fam.check(a, "range:")
     fam.check(b, "range:")
     direction = 1.0 if b >= a else -1.0
