@@ -157,6 +157,20 @@ def test_scaffold_lays_out_its_hard_cases(tmp_path):
     assert check_pdf(tmp_path / "hard.pdf") == []
 
 
+def test_a_caption_of_numbers_and_arrows_stays_on_the_page(tmp_path):
+    """A route sentence (digits, ± and arrows are wider than letters): wrapped by its measured
+    width, not by a count of characters (olyaei2012's route page ran off the page at 175 characters)."""
+    from nld.output.report import Report
+    cap = " ".join(f"→ period doubling (brute force) at c = 0.0{k}229 ± 0.0024 mm → period 2 "
+                   f"(c = 0.0{k}472–0.0{k}986 mm)" for k in range(1, 9))
+    with Report(tmp_path / "cap.pdf", "Route", scene="slider_crank") as rep:
+        with rep.style():
+            fig, ax = rep.subplots(1, 1, title="Route to chaos in the radial clearance c")
+            ax.plot([0, 1], [0, 1])
+        rep.figure(fig, caption=cap)
+    assert check_pdf(tmp_path / "cap.pdf") == []
+
+
 def test_table_splits_values_at_sensible_points_only():
     from nld.output.report import split_value
     assert split_value("slider_crank_olyaei", 10) == ["slider_", "crank_", "olyaei"]

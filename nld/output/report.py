@@ -199,6 +199,30 @@ def _text_width(s: str, size: float, bold: bool = False) -> float:
     return _WIDTHS[key] * size / 10.0
 
 
+def _wrap_measured(text: str, size: float, room: float) -> list[str]:
+    """``text`` broken at spaces into lines no wider than ``room`` [pt] in the report font at
+    ``size`` pt (measured, not counted: a line of digits and arrows is wider than one of letters);
+    a single word wider than ``room`` is split at :func:`~nld.output.text.split_value`'s points."""
+    out: list[str] = []
+    for para in str(text).split("\n"):
+        cur = ""
+        for word in para.split(" "):
+            trial = word if not cur else cur + " " + word
+            if cur and _text_width(trial, size) > room:
+                out.append(cur)
+                cur = word
+            else:
+                cur = trial
+            while _text_width(cur, size) > room and len(cur) > 1:
+                parts = split_value(cur, max(1, int(len(cur) * room / _text_width(cur, size)) - 1))
+                if len(parts) < 2:
+                    break
+                out.append(parts[0].rstrip())
+                cur = "".join(parts[1:]).lstrip()
+        out.append(cur)
+    return out
+
+
 def _fit_columns(header, body, room_w: float, col_widths=None):
     """``(header, body, widths, size)`` of a table ``room_w`` points wide that no cell text
     overflows: headers and then long values split at sensible points (:func:`split_value`) and the
@@ -334,7 +358,7 @@ class Report:
         fig.set_size_inches(*PAGE_SIZE)
         bottom = _FOOTER_H + 0.01
         if caption:
-            lines = self._wrap([caption], width=175)
+            lines = _wrap_measured(caption, 8.5, PAGE_SIZE[0] * 72.0 * (1.0 - 2.0 * _MARGIN))
             bottom += 0.022 * len(lines) + 0.01
             fig.text(_MARGIN, _FOOTER_H + 0.012, "\n".join(lines), fontsize=8.5, va="bottom", ha="left",
                      linespacing=1.3)
