@@ -161,8 +161,16 @@ def test_a_caption_of_numbers_and_arrows_stays_on_the_page(tmp_path):
     """A route sentence (digits, ± and arrows are wider than letters): wrapped by its measured
     width, not by a count of characters (olyaei2012's route page ran off the page at 175 characters)."""
     from nld.output.report import Report
-    cap = " ".join(f"→ period doubling (brute force) at c = 0.0{k}229 ± 0.0024 mm → period 2 "
-                   f"(c = 0.0{k}472–0.0{k}986 mm)" for k in range(1, 9))
+    cap = ("Route: period 1 (c = 0.02–0.03986 mm) → period doubling (brute force) at c = 0.04229 ± "
+           "0.0024 mm → period 2 (c = 0.04472 mm) → regime change at c = 0.04745 ± 0.0027 mm → "
+           "regular (c = 0.05017 mm) → regime change at c = 0.05323 ± 0.0031 mm → period 2 (c = "
+           "0.05628–0.06314 mm) → period halving (brute force) at c = 0.06698 ± 0.0038 mm → period 1 "
+           "(c = 0.07083 mm) → period doubling (brute force) at c = 0.07515 ± 0.0043 mm → period 2 "
+           "(c = 0.07946 mm) → period halving (brute force) at c = 0.0843 ± 0.0048 mm → period 1 (c "
+           "= 0.08914–0.1258 mm) → period doubling (brute force) at c = 0.1335 ± 0.0077 mm → period 2 "
+           "(c = 0.1412 mm) → period halving (brute force) at c = 0.1498 ± 0.0086 mm → period 1 (c = "
+           "0.1584–0.1993 mm) → regime change at c = 0.2115 ± 0.012 mm → period 14 (c = 0.2236 mm) → "
+           "regime change at c = 0.2372 ± 0.014 mm → period 1 (c = 0.2508 mm) → period doubling.")
     with Report(tmp_path / "cap.pdf", "Route", scene="slider_crank") as rep:
         with rep.style():
             fig, ax = rep.subplots(1, 1, title="Route to chaos in the radial clearance c")
