@@ -294,11 +294,14 @@ def die_with_parent() -> None:
         pass
 
 
-def end_pool(ex, grace: float = 2.0) -> None:
+def end_pool(ex, grace: float = 2.0) -> list[int]:
     """End the worker processes of a ProcessPoolExecutor now and release it without waiting:
-    SIGTERM to every worker, SIGKILL to any still alive after ``grace`` seconds."""
+    SIGTERM to every worker, SIGKILL to any still alive after ``grace`` seconds. Returns the
+    workers' process ids (a worker ended while it wrote leaves its temporary file behind:
+    nld.output.io.remove_temporary removes it)."""
     import time
     procs = list((getattr(ex, "_processes", None) or {}).values())
+    pids = [p.pid for p in procs if getattr(p, "pid", None) is not None]
     for p in procs:
         try:
             p.terminate()
@@ -317,3 +320,4 @@ def end_pool(ex, grace: float = 2.0) -> None:
                 p.join(timeout=1.0)
         except Exception:         # noqa: BLE001
             pass
+    return pids

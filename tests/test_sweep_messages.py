@@ -108,3 +108,28 @@ def test_out_of_memory_names_the_command_not_a_guess(monkeypatch, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "nld simulate slider_crank --revs 3" in err
     assert "revolutions or samples" not in err
+
+
+def test_a_writer_killed_mid_write_leaves_a_temporary_file_that_is_removed(tmp_path):
+    """A pool worker ended (SIGTERM/SIGKILL by end_pool) while it writes a point leaves its
+    temporary file; remove_temporary removes that process's files and no other's."""
+    import signal
+    import subprocess
+    import sys
+
+    from nld.output.io import remove_temporary
+    code = ("import sys, time; from nld.output.io import write_atomic\n"
+            "def w(tmp):\n    tmp.write_bytes(b'x'); print('writing', flush=True); time.sleep(60)\n"
+            "write_atomic(sys.argv[1], w)\n")
+    p = subprocess.Popen([sys.executable, "-c", code, str(tmp_path / "point-up-00001.parquet")],
+                         stdout=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "writing"
+    p.send_signal(signal.SIGKILL)
+    p.wait(timeout=10)
+    other = tmp_path / f".point-up-00002.parquet.{p.pid + 1}.tmp"
+    other.write_bytes(b"y")
+    left = sorted(x.name for x in tmp_path.glob(".*.tmp"))
+    assert left == sorted([f".point-up-00001.parquet.{p.pid}.tmp", other.name])
+    assert remove_temporary(tmp_path, [p.pid]) == 1
+    assert [x.name for x in tmp_path.glob(".*.tmp")] == [other.name]
+    assert not (tmp_path / "point-up-00001.parquet").exists()

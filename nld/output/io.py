@@ -86,6 +86,20 @@ def _tmp_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
+def remove_temporary(folder, pids) -> int:
+    """Remove the temporary files that processes ``pids`` left in ``folder`` (a worker killed
+    while it wrote a file, :func:`write_atomic`); returns how many were removed."""
+    n = 0
+    for pid in pids:
+        for tmp in Path(folder).glob(f".*.{int(pid)}.tmp"):
+            try:
+                tmp.unlink()
+                n += 1
+            except OSError:
+                pass
+    return n
+
+
 def _cannot_write(path: Path, e: OSError, note: str = "") -> InputError:
     return InputError(f"cannot write {path}: {e.strerror or e}{note}")
 

@@ -33,6 +33,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from nld.errors import InputError
 from nld.interrupt import end_pool, spawning
+from nld.output.io import remove_temporary
 
 __all__ = ["execute", "serial", "process_pool", "on_dask", "dask_client", "batches",
            "check_workers", "portable", "FORWARDED_ENV"]
@@ -147,7 +148,9 @@ def process_pool(fn, payload, items, *, workers: int, batch_size: int | None = N
         # Ctrl-C, an error or the consumer stopped: do not wait for the points in progress
         for f in futures:
             f.cancel()
-        end_pool(ex)
+        pids = end_pool(ex)
+        if out is not None:       # a worker ended while it wrote a point leaves its temporary file
+            remove_temporary(out, pids)
         raise
     ex.shutdown(wait=True)
 
