@@ -332,11 +332,12 @@ def summary_table(points: dict) -> pd.DataFrame:
 
 
 def run_census(study, st: dict, points: dict):
-    """The attractor census (nld.study.census_points) at every sweep point whose checked verdict is
+    """The attractor census (nld.analysis.coexistence.census_points) at every sweep point whose checked verdict is
     'not established' (and at st["census"]["always"]: (sweep, index) pairs); the census verdict
     ('coexisting', or the one attractor's class) replaces 'not established' in ``points``.
     Returns the census table."""
-    from nld.study import NOT_ESTABLISHED, census_points, census_verdicts
+    from nld.analysis.coexistence import census_points, census_verdicts
+    from nld.analysis.verdict import NOT_ESTABLISHED
     todo, where = {}, {}
     for name, pts in points.items():
         for i, (v, vd) in enumerate(zip(pts["value"].astype(float), pts["verdict"])):
@@ -344,7 +345,10 @@ def run_census(study, st: dict, points: dict):
                 label = f"{name}: {_fmt_value(name, v)}"
                 todo[label] = (_overrides(name, v), vd)
                 where[(name, i)] = label
-    cen = census_points(study, SCENE, todo, st)
+    c = st["census"]
+    cen = census_points(SCENE, todo, starts=c["starts"], transient=c["transient"],
+                        record=c["record"], rtol=c["rtol"], seed=c.get("seed", 0),
+                        workers=st["workers"], stage=study.stage)
     got = census_verdicts(cen)
     for (name, i), label in where.items():
         pts = points[name]

@@ -706,11 +706,12 @@ def run_routes(study, st, sweeps, pts_c, pts_f, c_f) -> dict:
 
 
 def run_census(study, st, res, pts_c, pts_f, c_f):
-    """The attractor census (nld.study.census_points) at every case and sweep point whose verdict
+    """The attractor census (nld.analysis.coexistence.census_points) at every case and sweep point whose verdict
     is 'not established' (one census per parameter pair), and at the cases of
     st["census"]["always"]; the census verdict replaces 'not established' in the case rows and the
     sweep points. Returns the census table."""
-    from nld.study import NOT_ESTABLISHED, census_points, census_verdicts
+    from nld.analysis.coexistence import census_points, census_verdicts
+    from nld.analysis.verdict import NOT_ESTABLISHED
     points, where = {}, {}
     for name, (group, ov, c, mu) in CASES.items():
         if res[name]["row"]["verdict"] == NOT_ESTABLISHED or name in st["census"]["always"]:
@@ -722,7 +723,10 @@ def run_census(study, st, res, pts_c, pts_f, c_f):
             if vd == NOT_ESTABLISHED and pair not in where:
                 where[pair] = f"c={pair[0] * 1e3:g}mm, μ={pair[1]:g}"
                 points[where[pair]] = ([f"{key}={v!r}"], vd)
-    cen = census_points(study, SCENE, points, st)
+    c = st["census"]
+    cen = census_points(SCENE, points, starts=c["starts"], transient=c["transient"],
+                        record=c["record"], rtol=c["rtol"], seed=c.get("seed", 0),
+                        workers=st["workers"], stage=study.stage)
     got = census_verdicts(cen)
     for name in CASES:
         if name in got and res[name]["row"]["verdict"] == NOT_ESTABLISHED:
