@@ -511,7 +511,7 @@ def _fig_sweep(rep, name, sw, pts, st, ylim, elim):
 
 
 def _state_title(k, s):
-    return (f"{k} candidate" if k == "chaotic" and s["verdict"] != CHAOTIC else k)
+    return (f"{k} candidate" if k == CHAOTIC and s["verdict"] != CHAOTIC else k)
 
 
 def _fig_states(rep, states):
@@ -588,7 +588,7 @@ def _fig_state_other(rep, states):
             sec = states[k]["section"]
             ax = axes[0, j]
             tab = sec.table
-            if k == "regular":
+            if k == REGULAR:
                 # a tight cluster: deviations from its mean point
                 mv, mw = float(tab["slider.vx"].mean()), float(tab["rod.omega"].mean())
                 tab = tab.assign(**{"slider.vx": (tab["slider.vx"] - mv) * 1e6, "rod.omega": (tab["rod.omega"] - mw) * 1e6})
