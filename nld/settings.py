@@ -193,3 +193,54 @@ def _docstrings() -> tuple[dict, dict]:
     classes = {node.name: dict(pairs(node.body)) for node in tree.body
                if isinstance(node, ast.ClassDef)}
     return classes, dict(pairs(tree.body))
+
+
+# --------------------------------------------------------------------- chaos control of a scene
+# (a block of its own: nld.analysis.scene_control and ``nld control``; issue 39 moved it here from
+# nld/cli/control.py's DEFAULTS)
+
+
+@dataclass(frozen=True)
+class Control:
+    """Chaos control of a crank-driven scene (``nld.analysis.scene_control.control_scene``, ``nld
+    control``): defaults that work on the chaotic slider_crank_olyaei --set
+    joints.B.clearance=2e-4 --set joints.B.friction.mu=0 (docs/control.md, "Control of a clearance
+    mechanism": measured, not assumed)."""
+
+    method: str = "edfc"
+    """control method: pyragas, edfc (delayed feedback) or ogy"""
+    gain: float = 1.0
+    """delayed-feedback gain K, N m per unit of the signal (N m s/rad on an angular velocity)"""
+    memory: float = 0.9
+    """EDFC memory R in [0, 1) (pyragas: 0)"""
+    target_period: int = 1
+    """period of the target orbit, crank revolutions"""
+    transient: int = 10
+    """free revolutions before control, rev"""
+    revs: int = 300
+    """controlled revolutions, rev"""
+    lyapunov_revs: int = 32
+    """revolutions averaged by each closed-loop lambda1 (after a quarter as many, not counted), rev"""
+    scan_transient: int = 20
+    """revolutions under each gain of the stability domain before its lambda1, rev"""
+    rtol: float = 1e-8
+    """relative tolerance of the controlled and free integrations"""
+    dp_max: float = 1.0
+    """OGY: largest torque perturbation, N m"""
+    radius: float = 1.0
+    """OGY: scaled distance to the orbit within which it acts (state scales)"""
+    lyapunov_interval: float = 0.25
+    """renormalisation interval of the closed-loop lambda1, rev"""
+    d0: float = 1e-5
+    """separation of the two trajectories of the closed-loop lambda1 (scaled), far above the
+    integration's noise"""
+    chunk_revs: int = 5
+    """revolutions per integration chunk of the controlled run (Ctrl-C, progress), rev"""
+    samples_per_delay: int = 50
+    """samples of the controlled run per delay (control_delayed's default)"""
+
+
+CONTROL = Control()
+"""``control_scene`` / ``nld control``."""
+
+__all__ += ["Control", "CONTROL"]

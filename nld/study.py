@@ -437,66 +437,14 @@ def route_page(rep, route: dict | None, sweep, pts, table, observable: str, *, l
     rep.figure(fig, caption=" ".join(cap))
 
 
-# ---------------------------------------------------------------- coexisting motions
-CENSUS_COLUMNS = ["point", "verdict_before", "census_verdict", "attractor", "kind", "period",
-                  "fraction", "fraction_lo", "fraction_hi", "lambda1_per_rev",
-                  "lambda1_unc_per_rev", "onsets_per_rev", "onsets_per_orbit", "max_abs_mu",
-                  "count", "starts", "memory"]
-
-
-def census_points(study, scene: str, points: dict, st: dict):
-    """The attractor census (``nld.analysis.attractors.census``) at each point whose verdict is
-    not established: points ``{label: (overrides, verdict before)}``; st: the study's
-    ``census`` settings (starts, transient, record, rtol, seed) and ``workers``. One row per
-    attractor (and one per point for its unsettled runs), columns :data:`CENSUS_COLUMNS`; the
-    census's verdict ("coexisting", or the one attractor's class) replaces "not established"."""
-    import numpy as np
-    import pandas as pd
-    from nld.analysis.attractors import census
-    from nld.systems.core import SceneSystem
-    rows = []
-    c = st["census"]
-    for label, (ov, before) in points.items():
-        study.stage(f"census at {label}")
-        res = census(SceneSystem(scene, list(ov)), c["starts"], transient=c["transient"],
-                     record=c["record"], rtol=c["rtol"], seed=c.get("seed", 0),
-                     workers=st["workers"])
-        for a in res.attractors:
-            mem = ("" if not a.conditional_on_memory else "; ".join(
-                f"{k} {lo:.3g}..{hi:.3g} m/s" for k, (lo, hi) in a.conditional_on_memory.items()))
-            rows.append(dict(point=label, verdict_before=before, census_verdict=res.verdict,
-                             attractor=a.id, kind=a.kind, period=a.period, fraction=a.fraction,
-                             fraction_lo=a.fraction_interval[0],
-                             fraction_hi=a.fraction_interval[1], lambda1_per_rev=a.lambda1,
-                             lambda1_unc_per_rev=a.lambda1_uncertainty,
-                             onsets_per_rev=a.onsets_per_period,
-                             onsets_per_orbit=(a.onsets_per_orbit if a.onsets_per_orbit
-                                               is not None else float("nan")),
-                             max_abs_mu=(float(np.max(np.abs(a.multipliers)))
-                                         if a.multipliers is not None and len(a.multipliers)
-                                         else float("nan")),
-                             count=a.count, starts=res.n_starts, memory=mem))
-        if res.unsettled or not res.attractors:
-            lo, hi = res.unsettled_interval
-            rows.append(dict(point=label, verdict_before=before, census_verdict=res.verdict,
-                             attractor=-1, kind="unsettled", period=0,
-                             fraction=res.unsettled / res.n_starts, fraction_lo=lo,
-                             fraction_hi=hi, lambda1_per_rev=float("nan"),
-                             lambda1_unc_per_rev=float("nan"), onsets_per_rev=float("nan"),
-                             onsets_per_orbit=float("nan"), max_abs_mu=float("nan"),
-                             count=res.unsettled, starts=res.n_starts, memory=""))
-    return pd.DataFrame(rows, columns=CENSUS_COLUMNS)
-
-
-def census_verdicts(df) -> dict:
-    """{point: census verdict} of a :func:`census_points` table."""
-    return {} if df is None or not len(df) else \
-        dict(zip(df["point"], df["census_verdict"]))
+# ---------------------------------------------------------------- coexisting motions: the census
+# workflow is nld.analysis.coexistence's (census_points, census_verdicts); here only its page
 
 
 def census_page(rep, df, st: dict, what: str) -> None:
-    """The report page "Coexisting motions": the census at every point whose verdict was not
-    established, its attractors, basin fractions (Wilson 95 %), λ1 and onsets per revolution.
+    """The report page "Coexisting motions" of a :func:`nld.analysis.coexistence.census_points`
+    table ``df``: the census at every point whose verdict was not established, its attractors,
+    basin fractions (Wilson 95 %), λ1 and onsets per revolution.
     what: the points' description for the text."""
     c = st["census"]
     if df is None or not len(df):

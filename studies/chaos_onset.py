@@ -28,6 +28,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from nld.analysis.verdict import (CHAOTIC, FAILED, NOT_ESTABLISHED, PERMANENT_CONTACT, REGULAR,
+                                  SHORT, UNCERTAIN)
+
 STEM = "chaos_onset"
 TITLE = "Onset of chaos over clearance x friction: slider-crank and excavator (largest Lyapunov exponent)"
 
@@ -122,12 +125,12 @@ def summarise(name: str, df: pd.DataFrame) -> dict:
     ok = df[df["status"] == "ok"]
     lam = ok["per_revolution"].astype(float)
     v = df["verdict"]
-    return {"map": name, "cells": len(df), "chaotic": int((v == "chaotic").sum()),
-            "regular": int((v == "regular").sum()),
-            "uncertain": int(v.isin(["uncertain", "λ1 > 0, short"]).sum()),
-            "not_established": int((v == "not established").sum()),
-            "permanent_contact": int((v == "permanent contact").sum()),
-            "failed": int((v == "failed").sum()),
+    return {"map": name, "cells": len(df), "chaotic": int((v == CHAOTIC).sum()),
+            "regular": int((v == REGULAR).sum()),
+            "uncertain": int(v.isin([UNCERTAIN, SHORT]).sum()),
+            "not_established": int((v == NOT_ESTABLISHED).sum()),
+            "permanent_contact": int((v == PERMANENT_CONTACT).sum()),
+            "failed": int((v == FAILED).sum()),
             "tolerance_dependent": int(df["message"].str.contains("depends on the tolerance").sum()),
             "max_lambda_per_rev": float(lam.max()) if len(lam) else math.nan,
             "min_lambda_per_rev": float(lam.min()) if len(lam) else math.nan,
@@ -216,7 +219,7 @@ def _texts(summ, bnd, maps, st_all, mode_label, walls):
         for y, g in df.groupby("y", sort=True):
             ok = g[g["status"] == "ok"]
             out.append(f"μ = {y:g}: mean λ1 {ok['per_revolution'].mean():.3g}, "
-                       f"{(ok['verdict'] == 'chaotic').sum()}/{len(g)} chaotic")
+                       f"{(ok['verdict'] == CHAOTIC).sum()}/{len(g)} chaotic")
         return "; ".join(out)
 
     def by_c(name):
@@ -270,9 +273,9 @@ def _check_discussion(sc: pd.DataFrame) -> str:
     parts = []
     for y, g in sc.groupby("y", sort=True):
         v = g["verdict"]
-        parts.append(f"μ = {y:g}: {(v == 'chaotic').sum()} C / {(v == 'regular').sum()} R / "
-                     f"{v.isin(['uncertain', 'not established']).sum()} ? / "
-                     f"{(v == 'permanent contact').sum()} P")
+        parts.append(f"μ = {y:g}: {(v == CHAOTIC).sum()} C / {(v == REGULAR).sum()} R / "
+                     f"{v.isin([UNCERTAIN, NOT_ESTABLISHED]).sum()} ? / "
+                     f"{(v == PERMANENT_CONTACT).sum()} P")
     ok = sc[sc["status"] == "ok"]
     lower = int((ok["per_revolution_check"] < ok["per_revolution"]).sum())
     return (" The tolerance check by friction value (chaotic / regular / uncertain or not "
@@ -287,8 +290,8 @@ def _discussion(summ, maps):
     ex = maps["excavator"]
     lo_mu = sc[sc["y"] == sc["y"].min()]
     hi_mu = sc[sc["y"] == sc["y"].max()]
-    frac = lambda g: (g["verdict"] == "chaotic").mean()
-    ex_reg = int((ex["verdict"] == "regular").sum())
+    frac = lambda g: (g["verdict"] == CHAOTIC).mean()
+    ex_reg = int((ex["verdict"] == REGULAR).sum())
     ok = sc[sc["status"] == "ok"]
     rho_mu = ok[["y", "per_revolution"]].rank().corr().iloc[0, 1] if len(ok) > 2 else math.nan
     rho_c = ok[["x", "per_revolution"]].rank().corr().iloc[0, 1] if len(ok) > 2 else math.nan

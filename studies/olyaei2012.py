@@ -43,6 +43,8 @@ import pandas as pd
 from nld.output.report import ec_limit
 from nld.analysis.route import save_route
 from nld.study import sde, verdict as verdict_rule
+from nld.analysis.verdict import CHAOTIC, COEXISTING, FAILED, NOT_ESTABLISHED, PERMANENT_CONTACT, \
+    REGULAR, SHORT, UNCERTAIN
 
 SCENE = "slider_crank_olyaei"
 STEM = "olyaei2012"
@@ -118,14 +120,13 @@ C0 = 0.5e-3                # m, the scene's radial clearance at B (main() checks
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
 # points the section cannot tell an attractor from a transient, whatever the exponent says
 MIN_SECTION_POINTS = 50
-SHORT = "λ1 > 0, short"
 # e/c axes of the sections and bifurcation diagrams: +-1 = the journal touches the bearing
 EC_LIM = 1.15
 
 
-VERDICT_COLORS = {"chaotic": "tab:red", SHORT: "tab:orange", "regular": "tab:blue", "uncertain": "0.5",
-                  "not established": "tab:olive", "coexisting": "tab:pink",
-                  "permanent contact": "tab:cyan"}
+VERDICT_COLORS = {CHAOTIC: "tab:red", SHORT: "tab:orange", REGULAR: "tab:blue", UNCERTAIN: "0.5",
+                  NOT_ESTABLISHED: "tab:olive", COEXISTING: "tab:pink",
+                  PERMANENT_CONTACT: "tab:cyan"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
@@ -222,7 +223,7 @@ def check_points(st: dict, points: dict, sweeps: dict):
     f = st["check_rtol_factor"]
     out = {}
     for name, pts in points.items():
-        vals = [float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != "regular"]
+        vals = [float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != REGULAR]
         chk = None
         if vals:
             sweeps[f"{name}_check"] = sweep(
@@ -239,7 +240,7 @@ def chaotic_windows(pts: pd.DataFrame):
     """Contiguous runs of chaotic points: [(first value, last value, count)]."""
     out, cur = [], None
     for v, verdict in zip(pts["value"], pts["verdict"]):
-        if verdict == "chaotic":
+        if verdict == CHAOTIC:
             cur = [v, v, 1] if cur is None else [cur[0], v, cur[2] + 1]
         elif cur is not None:
             out.append(tuple(cur))
@@ -268,7 +269,7 @@ def verdict_counts(points: dict) -> dict:
     "failed", else its verdict), so that the counts add up to the number of points."""
     out: dict = {}
     for pts in points.values():
-        cls = np.where(pts["status"].to_numpy() != "ok", "failed", pts["verdict"].astype(str).to_numpy())
+        cls = np.where(pts["status"].to_numpy() != "ok", FAILED, pts["verdict"].astype(str).to_numpy())
         for c in cls:
             out[str(c)] = out.get(str(c), 0) + 1
     return out
@@ -278,9 +279,9 @@ def tally_text(counts: dict) -> str:
     """"Of N points, a are chaotic, b regular, ...": every class with a count, largest first after
     chaotic and regular, so that the parts add up to N."""
     n = sum(counts.values())
-    order = ["chaotic", "regular"] + sorted((k for k in counts if k not in ("chaotic", "regular")),
+    order = [CHAOTIC, REGULAR] + sorted((k for k in counts if k not in (CHAOTIC, REGULAR)),
                                             key=lambda k: -counts[k])
-    parts = [f"{counts.get(k, 0)} {k}" for k in order if k in ("chaotic", "regular") or counts.get(k)]
+    parts = [f"{counts.get(k, 0)} {k}" for k in order if k in (CHAOTIC, REGULAR) or counts.get(k)]
     return f"Of {n} points, " + ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
 
 
@@ -309,15 +310,15 @@ def summary_table(points: dict) -> pd.DataFrame:
     for name, pts in points.items():
         ok = pts[pts["status"] == "ok"]
         win = chaotic_windows(pts)
-        ch = pts[pts["verdict"] == "chaotic"]
+        ch = pts[pts["verdict"] == CHAOTIC]
         rows.append({"sweep": name, "param": SWEEPS[name][0], "points": len(pts),
-                     "chaotic": int((pts["verdict"] == "chaotic").sum()),
-                     "regular": int((pts["verdict"] == "regular").sum()),
+                     "chaotic": int((pts["verdict"] == CHAOTIC).sum()),
+                     "regular": int((pts["verdict"] == REGULAR).sum()),
                      "positive_short": int((pts["verdict"] == SHORT).sum()),
-                     "uncertain": int((pts["verdict"] == "uncertain").sum()),
-                     "coexisting": int((pts["verdict"] == "coexisting").sum()),
-                     "permanent_contact": int((pts["verdict"] == "permanent contact").sum()),
-                     "not_established": int((pts["verdict"] == "not established").sum()),
+                     "uncertain": int((pts["verdict"] == UNCERTAIN).sum()),
+                     "coexisting": int((pts["verdict"] == COEXISTING).sum()),
+                     "permanent_contact": int((pts["verdict"] == PERMANENT_CONTACT).sum()),
+                     "not_established": int((pts["verdict"] == NOT_ESTABLISHED).sum()),
                      "failed": int((pts["status"] != "ok").sum()),
                      "periodic_sections": int((ok["period_c"] > 0).sum()),
                      "max_lambda_per_rev": float(ok["lambda_per_rev"].max()) if len(ok) else math.nan,
@@ -332,11 +333,11 @@ def summary_table(points: dict) -> pd.DataFrame:
 
 
 def run_census(study, st: dict, points: dict):
-    """The attractor census (nld.study.census_points) at every sweep point whose checked verdict is
-    'not established' (and at st["census"]["always"]: (sweep, index) pairs); the census verdict
+    """The attractor census (nld.analysis.coexistence.census_points) at every sweep point whose
+    checked verdict is 'not established' (and at st["census"]["always"]: (sweep, index) pairs); the census verdict
     ('coexisting', or the one attractor's class) replaces 'not established' in ``points``.
     Returns the census table."""
-    from nld.study import NOT_ESTABLISHED, census_points, census_verdicts
+    from nld.analysis.coexistence import census_points, census_verdicts
     todo, where = {}, {}
     for name, pts in points.items():
         for i, (v, vd) in enumerate(zip(pts["value"].astype(float), pts["verdict"])):
@@ -344,7 +345,10 @@ def run_census(study, st: dict, points: dict):
                 label = f"{name}: {_fmt_value(name, v)}"
                 todo[label] = (_overrides(name, v), vd)
                 where[(name, i)] = label
-    cen = census_points(study, SCENE, todo, st)
+    c = st["census"]
+    cen = census_points(SCENE, todo, starts=c["starts"], transient=c["transient"],
+                        record=c["record"], rtol=c["rtol"], seed=c.get("seed", 0),
+                        workers=st["workers"], stage=study.stage)
     got = census_verdicts(cen)
     for (name, i), label in where.items():
         pts = points[name]
@@ -363,11 +367,11 @@ def pick_states(points: dict):
     with lambda - uncertainty > 0 (chaotic, or SHORT: the showcase's longer section decides), by
     decreasing lambda - uncertainty (at most MAX_CHAOTIC_CANDIDATES)."""
     allp = pd.concat(points.values(), ignore_index=True)
-    reg = allp[allp["verdict"] == "regular"]
+    reg = allp[allp["verdict"] == REGULAR]
     per = reg[reg["period_c"] > 0]
     pool = per if len(per) else reg
     regular = pool.loc[pool["lambda_per_rev"].idxmin()].to_dict() if len(pool) else None
-    ch = allp[allp["verdict"].isin(["chaotic", SHORT])]
+    ch = allp[allp["verdict"].isin([CHAOTIC, SHORT])]
     ch = ch.assign(_key=ch["lambda_per_rev"] - ch["lambda_unc_per_rev"]).sort_values("_key", ascending=False)
     chaotic = [r.drop(labels="_key").to_dict() for _, r in ch.head(MAX_CHAOTIC_CANDIDATES).iterrows()]
     return regular, chaotic
@@ -507,7 +511,7 @@ def _fig_sweep(rep, name, sw, pts, st, ylim, elim):
 
 
 def _state_title(k, s):
-    return (f"{k} candidate" if k == "chaotic" and s["verdict"] != "chaotic" else k)
+    return (f"{k} candidate" if k == CHAOTIC and s["verdict"] != CHAOTIC else k)
 
 
 def _fig_states(rep, states):
@@ -584,7 +588,7 @@ def _fig_state_other(rep, states):
             sec = states[k]["section"]
             ax = axes[0, j]
             tab = sec.table
-            if k == "regular":
+            if k == REGULAR:
                 # a tight cluster: deviations from its mean point
                 mv, mw = float(tab["slider.vx"].mean()), float(tab["rod.omega"].mean())
                 tab = tab.assign(**{"slider.vx": (tab["slider.vx"] - mv) * 1e6, "rod.omega": (tab["rod.omega"] - mw) * 1e6})
@@ -714,7 +718,7 @@ def _texts(points, summary, states, st, mode_label, tolcheck=None):
                          f"{_f(t['lambda_per_rev'])} ± {_f(t['lambda_unc_per_rev'], digits=2)}"
                          for t in cha["tried"][:-1]) + ".")
     if cha:
-        found.append(f"- {'Chaotic showcase' if cha['verdict'] == 'chaotic' else 'Chaotic candidate showcase'} "
+        found.append(f"- {'Chaotic showcase' if cha['verdict'] == CHAOTIC else 'Chaotic candidate showcase'} "
                      f"({SWEEPS[cha['point']['sweep']][1]} = "
                      f"{_fmt_value(cha['point']['sweep'], cha['point']['value'])}): {len(cha['section'].table)} "
                      f"section points spread over {_f(cha['spread_m'] * 1e6, 'µm')}; λ1 = "

@@ -10,8 +10,8 @@ chaotic, the case on which docs/control.md measured what works. The study runs
   eccentricity over ``free_revs`` revolutions after ``free_transient``, contact onsets per
   revolution, the crank's drive torque (the torque scale the control torque is compared with);
 * ``nld control`` with its documented defaults (EDFC, torque on the rod, signal rod.phi_dot,
-  K = 1 N m s/rad, R = 0.9, tau = one crank period; ``nld.cli.control.run_control``, the command's
-  own code): lambda1 free and controlled with their uncertainties, the effort, the capture
+  K = 1 N m s/rad, R = 0.9, tau = one crank period; ``nld.analysis.scene_control.control_scene``,
+  the command's own workflow): lambda1 free and controlled with their uncertainties, the effort, the capture
   revolution, the orbit of the controlled motion (Newton) with its Floquet multipliers and the
   odd-number verdict, and the stability domain lambda1(K) at R = 0.9 (``gains``) from the end of the
   controlled run;
@@ -28,7 +28,6 @@ provenance; ``_history.parquet`` (the controlled run's samples; not committed).
 """
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from pathlib import Path
@@ -45,7 +44,7 @@ CITATION = ("A. A. Olyaei, M. R. Ghazavi (2012), \"Stabilizing slider-crank mech
 INTERRUPT_KEEPS = ("nothing kept: the report and its data are written only at the end; run the "
                    "study again (nld control's own message above says which part had finished)")
 
-# control: nld control's defaults (nld.cli.control.DEFAULTS, measured in docs/control.md); gains:
+# control: nld control's defaults (nld.settings.CONTROL, measured in docs/control.md); gains:
 # the stability domain at R = 0.9; free_*: the uncontrolled section (nld.run.simulate)
 FULL = dict(transient=10, revs=300, lyapunov_revs=32, scan_transient=20,
             gains=[round(float(k), 6) for k in np.linspace(0.1, 3.0, 30)],
@@ -61,32 +60,31 @@ SAMPLE_Z_ELASTIC = 1e30     # contact memory that removes the hysteresis term: F
 # ------------------------------------------------------------------------------------- computation
 
 
-def control_args(st: dict):
-    """The ``nld control`` arguments of the study (its parser, so every default is the command's):
-    the scene, the defaults, ``--gains`` the study's, the study's revolutions."""
-    from nld.cli.control import add_parser
-    p = argparse.ArgumentParser()
-    add_parser(p.add_subparsers())
-    argv = ["control", SCENE] + [a for o in OVERRIDES for a in ("--set", o)] + [
-        "--transient", str(st["transient"]), "--revs", str(st["revs"]),
-        "--lyapunov-revs", str(st["lyapunov_revs"]), "--scan-transient", str(st["scan_transient"]),
-        "--rtol", repr(st["rtol"]), "--gains", ",".join(repr(float(k)) for k in st["gains"])]
-    args = p.parse_args(argv)
-    args.progress = None
-    args.command_line = "nld " + " ".join(argv)
-    return args
+def control_kwargs(st: dict) -> dict:
+    """The keyword arguments of :func:`nld.analysis.scene_control.control_scene` for the study:
+    the scene and its overrides, the study's revolutions, tolerance and gains; every other setting
+    the command's default (nld.settings.CONTROL)."""
+    command = "nld " + " ".join(
+        ["control", SCENE] + [a for o in OVERRIDES for a in ("--set", o)] + [
+            "--transient", str(st["transient"]), "--revs", str(st["revs"]),
+            "--lyapunov-revs", str(st["lyapunov_revs"]), "--scan-transient",
+            str(st["scan_transient"]), "--rtol", repr(st["rtol"]),
+            "--gains", ",".join(repr(float(k)) for k in st["gains"])])
+    return dict(scene=SCENE, overrides=list(OVERRIDES), transient=st["transient"], revs=st["revs"],
+                lyapunov_revs=st["lyapunov_revs"], scan_transient=st["scan_transient"],
+                rtol=st["rtol"], gains=[float(k) for k in st["gains"]], command=command)
 
 
 def controlled_case(st: dict, say) -> dict:
-    """``nld control`` (run_control) with the defaults and the gain scan; from its controlled run
+    """``nld control``'s workflow (control_scene) with the defaults and the gain scan; from its controlled run
     the sampled time history (t, rev, u, rod.phi_dot, B.ex, B.ey, the contact force's elastic part
     for the whole run and the whole force where the contact memory is the final one), onset
     times, the control's start, the crank period and the clearance."""
-    from nld.cli.control import run_control
-    args = control_args(st)
+    from nld.analysis.scene_control import control_scene
     t0 = time.perf_counter()
-    out, res, S = run_control(args, say)
+    r = control_scene(**control_kwargs(st), say=say)
     wall = time.perf_counter() - t0
+    out, res, S = r.out, r.result, r.system
     run = res.run
     T = float(S.period)
     kern = S.kernel

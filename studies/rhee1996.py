@@ -41,6 +41,8 @@ import pandas as pd
 
 from nld.output.report import ec_limit
 from nld.study import verdict as verdict_rule
+from nld.analysis.verdict import CHAOTIC, COEXISTING, NOT_ESTABLISHED, PERMANENT_CONTACT, REGULAR, \
+    SHORT, UNCERTAIN
 
 SCENE = "four_bar"
 STEM = "rhee1996"
@@ -101,9 +103,9 @@ MIN_SECTION_POINTS = 50
 EC_LIM = 1.15
 
 
-VERDICT_COLORS = {"chaotic": "tab:red", "λ1 > 0, short": "tab:orange", "regular": "tab:blue",
-                  "uncertain": "0.5", "not established": "tab:olive", "coexisting": "tab:pink",
-                  "permanent contact": "tab:cyan"}
+VERDICT_COLORS = {CHAOTIC: "tab:red", SHORT: "tab:orange", REGULAR: "tab:blue",
+                  UNCERTAIN: "0.5", NOT_ESTABLISHED: "tab:olive", COEXISTING: "tab:pink",
+                  PERMANENT_CONTACT: "tab:cyan"}
 UNCERTAINTY_TEXT = ("uncertainty: block standard error of the local rates + spread of the running "
                     "estimate over its last half")
 
@@ -291,7 +293,7 @@ def sweep_checks(st, pts_c, pts_f, clearance):
     t0 = time.perf_counter()
     for name, param, pts in (("clearance", "joints.B.clearance", pts_c),
                              ("friction", "joints.B.friction.mu", pts_f)):
-        vals = [float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != "regular"]
+        vals = [float(v) for v, vd in zip(pts["value"], pts["verdict_main"]) if vd != REGULAR]
         out[name] = sweep(SCENE, param, vals, **kw) if vals else None
     return out, time.perf_counter() - t0
 
@@ -532,9 +534,9 @@ def _texts(summary, pts_c, pts_f, st, mode_label):
         if len(p) < 2:
             return f"{what}: not enough points."
         lo, hi = p.iloc[0], p.iloc[-1]
-        ch = p[p["verdict"] == "chaotic"]
-        sh = p[p["verdict"] == "λ1 > 0, short"]
-        rg = p[p["verdict"] == "regular"]
+        ch = p[p["verdict"] == CHAOTIC]
+        sh = p[p["verdict"] == SHORT]
+        rg = p[p["verdict"] == REGULAR]
         xv = np.log(p["value"].to_numpy(float)) if what == "clearance" else p["value"].to_numpy(float)
         r = np.corrcoef(xv, p["lambda_per_rev"])[0, 1] if len(p) > 2 else float("nan")
         return (f"{what}: λ1 = {_f(lo['lambda_per_rev'])} /rev at {lo['value'] * scale:g} {unit}, "
@@ -570,8 +572,8 @@ def _discussion(summary, pts_c, pts_f):
     fr_ok = bool(len(ok_f) >= 2 and ok_f["lambda_per_rev"].iloc[-1] < ok_f["lambda_per_rev"].iloc[0])
     first_reg = ok_f[ok_f["lambda_per_rev"] + ok_f["lambda_unc_per_rev"] < 0]
     mu_reg = f"{first_reg['value'].iloc[0]:g}" if len(first_reg) else "none in the sweep"
-    cl_chaotic = ok_c[ok_c["verdict"] == "chaotic"]
-    cl_short = ok_c[ok_c["verdict"] == "λ1 > 0, short"]
+    cl_chaotic = ok_c[ok_c["verdict"] == CHAOTIC]
+    cl_short = ok_c[ok_c["verdict"] == SHORT]
     cl_incr = bool(len(ok_c) >= 2 and ok_c["lambda_per_rev"].iloc[-1] > ok_c["lambda_per_rev"].iloc[0])
     lines = [
         "Friction: " + ("REPRODUCED. " if fr_ok else "NOT reproduced. ") +
@@ -706,11 +708,11 @@ def run_routes(study, st, sweeps, pts_c, pts_f, c_f) -> dict:
 
 
 def run_census(study, st, res, pts_c, pts_f, c_f):
-    """The attractor census (nld.study.census_points) at every case and sweep point whose verdict
-    is 'not established' (one census per parameter pair), and at the cases of
+    """The attractor census (nld.analysis.coexistence.census_points) at every case and sweep point
+    whose verdict is 'not established' (one census per parameter pair), and at the cases of
     st["census"]["always"]; the census verdict replaces 'not established' in the case rows and the
     sweep points. Returns the census table."""
-    from nld.study import NOT_ESTABLISHED, census_points, census_verdicts
+    from nld.analysis.coexistence import census_points, census_verdicts
     points, where = {}, {}
     for name, (group, ov, c, mu) in CASES.items():
         if res[name]["row"]["verdict"] == NOT_ESTABLISHED or name in st["census"]["always"]:
@@ -722,7 +724,10 @@ def run_census(study, st, res, pts_c, pts_f, c_f):
             if vd == NOT_ESTABLISHED and pair not in where:
                 where[pair] = f"c={pair[0] * 1e3:g}mm, μ={pair[1]:g}"
                 points[where[pair]] = ([f"{key}={v!r}"], vd)
-    cen = census_points(study, SCENE, points, st)
+    c = st["census"]
+    cen = census_points(SCENE, points, starts=c["starts"], transient=c["transient"],
+                        record=c["record"], rtol=c["rtol"], seed=c.get("seed", 0),
+                        workers=st["workers"], stage=study.stage)
     got = census_verdicts(cen)
     for name in CASES:
         if name in got and res[name]["row"]["verdict"] == NOT_ESTABLISHED:

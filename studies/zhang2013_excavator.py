@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nld.analysis.verdict import CHAOTIC, FAILED, REGULAR, SHORT, UNCERTAIN
 from nld.output.io import json_default
 
 SCENE = "excavator"
@@ -354,7 +355,7 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
             est = dict(getattr(r, "settings", {}) or {})
             est.setdefault("method", getattr(r, "method", None))
             n_sec = int((sec.table["rev"] >= 0).sum())
-            if an.get("rtol_check") and verdict(status, per, uper, n_sec) not in ("uncertain", "failed"):
+            if an.get("rtol_check") and verdict(status, per, uper, n_sec) not in (UNCERTAIN, FAILED):
                 # the verdict check: the same motion (from the same section end) at another
                 # tolerance over another averaging span; a failed check keeps the main result
                 try:
@@ -776,9 +777,9 @@ def _analysis_text(pts, spectra, an, mode, period=None):
         sc = 1e3 if sweep == "clearance" else 1.0
         lines.append(f"- {sweep} sweep: λ1 per revolution " +
                      "; ".join(f"{r['value'] * sc:g}{unit}: {fmt(r)}" for _, r in p.iterrows()) +
-                     f". {int((p['verdict'] == 'chaotic').sum())} of {len(p)} points chaotic, "
-                     f"{int((p['verdict'] == 'λ1 > 0, short').sum())} with a positive exponent over too "
-                     f"short a section, {int((p['verdict'] == 'regular').sum())} regular; λ1 from "
+                     f". {int((p['verdict'] == CHAOTIC).sum())} of {len(p)} points chaotic, "
+                     f"{int((p['verdict'] == SHORT).sum())} with a positive exponent over too "
+                     f"short a section, {int((p['verdict'] == REGULAR).sum())} regular; λ1 from "
                      f"{p['lambda_per_rev'].min():.3g} "
                      f"to {p['lambda_per_rev'].max():.3g}.")
     for name, (sw, v) in CASE_POINTS.items():
@@ -789,17 +790,17 @@ def _analysis_text(pts, spectra, an, mode, period=None):
             lines.append(f"- case {name}: λ1 = {fmt(p.iloc[0])} /rev ({p.iloc[0]['verdict']}); largest "
                          f"peaks of the A.Fn spectrum at crank orders {pks}.")
     ok = pts[pts["status"] == "ok"]
-    if len(ok) and (ok["verdict"] == "chaotic").all():
+    if len(ok) and (ok["verdict"] == CHAOTIC).all():
         read = ("Reading: the journals rattle in both clearances and the motion is chaotic (an established "
                 "positive exponent) at every clearance and friction coefficient tried, so no onset of chaos "
                 "lies inside these sweeps. ")
-    elif len(ok) and ok["verdict"].isin(["chaotic", "λ1 > 0, short"]).all():
+    elif len(ok) and ok["verdict"].isin([CHAOTIC, SHORT]).all():
         read = ("Reading: the journals rattle in both clearances and the exponent is positive at every "
                 "clearance and friction coefficient tried, but the sections have fewer than "
                 f"{MIN_SECTION_POINTS} points, so the motion is not called chaotic here: these runs cannot "
                 "tell a chaotic attractor from a long transient. ")
     else:
-        nc = ok[ok["verdict"] != "chaotic"]
+        nc = ok[ok["verdict"] != CHAOTIC]
         read = ("Reading: points without an established positive exponent: " +
                 ", ".join(f"{r['sweep']} {r['value']:g} ({r['verdict']})" for _, r in nc.iterrows()) + ". ")
     for sweep in ("clearance", "friction"):
@@ -858,8 +859,8 @@ def _agreement_text(summary, pts, tables=None, ideal=None, ts=0.0):
         + " the ideal-joint value: impacts spread the loop in every case"
         + (", most at the large clearance." if acc and max(acc, key=acc.get) == "r=0.5mm" else "."),
         "Sections, exponents, spectra: the paper computes none. Ours: "
-        + (f"{int((ok['verdict'] == 'chaotic').sum())} of {len(ok)} sweep points chaotic, "
-           f"{int((ok['verdict'] == 'regular').sum())} regular, the rest uncertain or short "
+        + (f"{int((ok['verdict'] == CHAOTIC).sum())} of {len(ok)} sweep points chaotic, "
+           f"{int((ok['verdict'] == REGULAR).sum())} regular, the rest uncertain or short "
            "(table and bifurcation diagrams)." if len(ok) else "no finished point."),
         "Why they differ: the paper leaves out parameters that set the impact magnitudes (contact damping, "
         "crushing torque, the geometry l4 and R, the law of the crank torque) and misprints K2 (next page); "

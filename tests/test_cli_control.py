@@ -122,6 +122,15 @@ def test_json_keys_on_a_short_run(capsys):
     assert s["message"].startswith("nothing to control: the target period-1 orbit is stable")
     assert s["revs"] == 2 and s["transient_revs"] == 2 and s["lyapunov_revs"] == 2
     assert len(s["effort_per_period"]) == 2
+    # issue 39: the library function (what a study calls) gives the command's result, to the bit
+    from nld.analysis.scene_control import control_scene
+    from nld.cli.args import json_plain
+    r = control_scene("slider_crank_olyaei", ["joints.B.friction.mu=0", "joints.B.clearance=5e-5"],
+                      revs=2, transient=2, lyapunov_revs=2, rtol=1e-7, progress=False)
+    lib = json.loads(json.dumps(r.out, default=json_plain))
+    assert lib["provenance"].pop("command") is None
+    out["provenance"].pop("command")
+    assert lib == out
 
 
 def _system_and_orbit():

@@ -2,7 +2,7 @@
 
 Default run (no integration: the suite's 5-minute budget has no room for the delay integrator's
 compile here): the smoke mode with the two expensive parts, ``controlled_case`` (nld control's
-run_control and the sampled contact force) and ``free_case`` (nld.run.simulate), replaced by
+control_scene and the sampled contact force) and ``free_case`` (nld.run.simulate), replaced by
 stand-ins with known numbers, so that the study's own code runs end to end (tables, CSV with
 provenance, report) and every number it writes can be checked against the stand-in. ``-m slow``:
 the quick mode through ``nld study`` (the default controlled run, three gains; about 40 s warm).
@@ -120,13 +120,27 @@ def test_the_numbers_follow_from_the_stand_ins(smoke):
 
 
 def test_the_study_runs_nld_control_with_its_defaults():
-    """control_args: the command's parser, so gain, memory, signal come from nld control's defaults."""
+    """control_kwargs: the library call of nld control's workflow (no parser in the study) with
+    the study's scene, spans, tolerance and gains only, so method, gain, memory and signal are nld
+    control's defaults; the command line it records parses to the same arguments."""
+    import inspect
+    import shlex
+
+    from nld.analysis.scene_control import control_scene
+    from nld.cli import build_parser
     study = load_study("olyaei2012_control.py")
-    a = study.control_args(dict(study.FULL))
-    assert a.scene == "slider_crank_olyaei" and a.overrides == study.OVERRIDES
-    assert a.gain is None and a.memory is None and a.method is None and a.signal is None
-    assert a.gains == pytest.approx(np.linspace(0.1, 3.0, 30)) and a.revs == 300
+    kw = study.control_kwargs(dict(study.FULL))
+    assert kw["scene"] == "slider_crank_olyaei" and kw["overrides"] == study.OVERRIDES
+    assert set(kw) <= set(inspect.signature(control_scene).parameters)
+    assert not {"method", "gain", "memory", "signal", "body", "delay"} & set(kw)
+    assert kw["gains"] == pytest.approx(np.linspace(0.1, 3.0, 30)) and kw["revs"] == 300
     assert len(study.QUICK["gains"]) == 3
+    a = build_parser().parse_args(shlex.split(kw["command"])[1:])
+    assert (a.scene, a.overrides, a.transient, a.revs, a.lyapunov_revs, a.scan_transient,
+            a.rtol) == (kw["scene"], kw["overrides"], kw["transient"], kw["revs"],
+                        kw["lyapunov_revs"], kw["scan_transient"], kw["rtol"])
+    assert list(a.gains) == kw["gains"]
+    assert a.gain is None and a.memory is None and a.method is None and a.signal is None
 
 
 def test_the_names_resolve():

@@ -9,6 +9,13 @@
     nld spectrum SCENE [--set ...] [--observable NAME] [--out FILE]
     nld lyapunov SCENE [--set ...] [--transient N] [--revs M] [--json]
     nld chaos-map SCENE --x KEY --x-values A:B:N --y KEY --y-values A:B:N --out DIR [--resume]
+    nld orbits SCENE [--set ...] [--period P] [--max-period P] [--transient N] [--json]
+    nld continue SCENE --param KEY --values A:B:N [--period P] [--arclength | --natural]
+                 [--out DIR] [--plot FILE]
+    nld attractors SCENE [--set ...] [--starts N] [--transient N] [--revs M] [--json]
+                 [--param KEY --values A:B:N --out DIR [--resume]] [--plot FILE]
+    nld control SCENE [--set ...] [--method pyragas|edfc|ogy] [--signal NAME] [--body NAME]
+                 [--gain K] [--memory R] [--delay S] [--target-period P] [--gains A:B:N] [--json]
     nld hard-cases [--quick] [--list] [NAME ...]  the integrators' hard regression cases
     nld study NAME [--quick] [--out-dir DIR]     run studies/NAME.py, print the PDF path
     nld --version
@@ -26,9 +33,12 @@ SIGPIPE, the status of a program killed by SIGPIPE).
 
 Layout: the only package of nld that knows argparse. ``app`` assembles the parser from one module
 per command (``scenes`` for scenes and show, ``simulate``, ``poincare``, ``bifurcation``,
-``spectrum``, ``chaos_map``, ``lyapunov``, ``hard_cases``, ``study``; each has ``add_parser(sub)``
-and ``cmd_*(args)``) and holds :func:`main`; ``args`` holds what they share (the parser class
-with one-line errors, argument types, the scene and progress options, the stderr messages).
+``spectrum``, ``chaos_map``, ``lyapunov``, ``orbits`` for orbits and continue, ``attractors``,
+``control``, ``hard_cases``, ``study``; each has ``add_parser(sub)`` and ``cmd_*(args)``, and
+calls the library: the workflows live below, e.g. ``nld control`` is
+:func:`nld.analysis.scene_control.control_scene`) and holds :func:`main`; ``args`` holds what they
+share (the parser class with one-line errors, argument types, the scene and progress options, the
+stderr messages).
 Option defaults come from :mod:`nld.settings`, as the API's do.
 
 Every command takes ``--quiet`` (no progress bars) and ``--progress`` (progress bars on stderr
