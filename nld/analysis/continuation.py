@@ -49,7 +49,7 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError, SceneError, SolveError
-from nld.analysis.orbits import (PeriodicOrbit, _Shooting, _finite, check_period, periodic_orbit,
+from nld.analysis.orbits import (PeriodicOrbit, Shooting, finite, check_period, periodic_orbit,
                                  section_points)
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
 
@@ -388,18 +388,18 @@ def _arclength_corrector(fam, like_map, o_prev: PeriodicOrbit, V_pred, t_vec, la
         except (InputError, SceneError) as e:   # the Newton left the parameter's domain (mu < 0)
             info["why"] = f"the corrector left the parameter's domain ({e})"
             return None
-        sh = _Shooting(m, p, multiple)
+        sh = Shooting(m, p, multiple)
         npts = p if multiple else 1
         X = V[:-1].reshape(npts, m.n) * sh.s
         try:
             r, J, steps = sh.evaluate(X, Z, True)
             dl = PARAM_FD_STEP * lam_scale
             m2 = fam.map_at(lam + dl, like_map)
-            Gl = _g_lambda(sh, _Shooting(m2, p, multiple), X, Z, dl, lam_scale)
+            Gl = _g_lambda(sh, Shooting(m2, p, multiple), X, Z, dl, lam_scale)
         except (SolveError, InputError, SceneError) as e:
             info["why"] = f"the integration failed ({e})"
             return None
-        if not (_finite(r) and _finite(J) and _finite(Gl)):
+        if not (finite(r) and finite(J) and finite(Gl)):
             info["why"] = "the map is not finite at the corrector's iterate"
             return None
         J = J.copy()
@@ -469,13 +469,13 @@ def _tangent(fam, like_map, o: PeriodicOrbit, value, lam_scale, prev_t=None):
     m = fam.map_at(value, like_map)
     p = o.period
     multiple = o.settings.get("shooting") == "multiple"
-    sh = _Shooting(m, p, multiple)
+    sh = Shooting(m, p, multiple)
     npts = p if multiple else 1
     X = o.points[:npts]
     Z = [np.array(z) for z in o.z[:npts]]
     r, J, _ = sh.evaluate(X, Z, True)
     dl = PARAM_FD_STEP * lam_scale
-    Gl = _g_lambda(sh, _Shooting(fam.map_at(value + dl, like_map), p, multiple), X, Z, dl,
+    Gl = _g_lambda(sh, Shooting(fam.map_at(value + dl, like_map), p, multiple), X, Z, dl,
                    lam_scale)
     fz = _frozen(o, m)
     J = J.copy()
@@ -527,7 +527,7 @@ def _check_owner(fam, orbit: PeriodicOrbit, system, param, tol):
     multiple = orbit.settings.get("shooting") == "multiple"
     npts = orbit.period if multiple else 1
     try:
-        r, _, _ = _Shooting(m, orbit.period, multiple).evaluate(
+        r, _, _ = Shooting(m, orbit.period, multiple).evaluate(
             orbit.points[:npts], [np.array(z) for z in orbit.z[:npts]], True)
         res = float(np.max(np.abs(r)))
     except SolveError as e:
@@ -934,7 +934,7 @@ def _jump_target(fam, like, o, value, direction, tol, offset: float = 0.0) -> st
         for _ in range(n):
             st = m.step(x, z)
             x, z = st.x, st.z
-            if not _finite(x):
+            if not finite(x):
                 return f"beyond the fold (at {fam.label} = {x_at:g}) the motion is not bounded"
         X, Z = section_points(m, x, z, 2 * JUMP_MAX_PERIOD + 1)
     except SolveError as e:
@@ -1402,11 +1402,11 @@ def bifurcation_criticality(fam, like, bif: Bifurcation, step: float):
             for _ in range(of.period):
                 st = mm.step(x, z)
                 x, z = st.x, st.z
-            if not _finite(x):
+            if not finite(x):
                 break
             if k >= NS_ITERATIONS // 2:
                 dist.append(float(np.max(np.abs(mm.difference(x, of.points[0]) / s))))
-        if not dist or not _finite(x) or max(dist) > 0.5:
+        if not dist or not finite(x) or max(dist) > 0.5:
             return "subcritical", (f"on the unstable side ({fam.label} = {value:.6g}) the motion "
                                    f"leaves the orbit's neighbourhood: no small invariant circle")
         radii.append(float(np.mean(dist)))

@@ -81,7 +81,7 @@ MAX_STEPS = 10_000_000
 
 
 # ---------------------------------------------------------------- input checks
-def _finite(name: str, value, allowed: str) -> float:
+def finite(name: str, value, allowed: str) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -184,13 +184,13 @@ def delayed_feedback(system, gain, delay, signal, *, memory=0.0, input: str = "s
     index of p (a scene: an entry of its parameter vector, e.g. ``loads.0.value``,
     ``driver.torque``). InputError (one line: field, value, what is allowed) for a negative or zero
     delay, an unknown signal or target, R outside [0, 1), a gain that is not finite."""
-    K = _finite("gain", gain, "K must be a finite number (unit of u per unit of the signal)")
-    tau = _finite("delay", delay, "tau must be a positive finite time (the target orbit's "
+    K = finite("gain", gain, "K must be a finite number (unit of u per unit of the signal)")
+    tau = finite("delay", delay, "tau must be a positive finite time (the target orbit's "
                                   "period)")
     if tau <= 0:
         raise InputError(f"delay = {delay!r}: tau must be a positive finite time (the target "
                          f"orbit's period)")
-    R = _finite("memory", memory, "R must be in [0, 1) (0: Pyragas)")
+    R = finite("memory", memory, "R must be in [0, 1) (0: Pyragas)")
     if not 0.0 <= R < 1.0:
         raise InputError(f"memory = {memory!r}: R must be in [0, 1) (0: Pyragas; EDFC weights "
                          f"period k by R^(k-1))")
@@ -261,7 +261,7 @@ def run_delayed(system, fb: DelayedFeedback, duration: float, *, y0=None, z0=Non
     this time, each continuing the last from its history (the same run: control returns to
     Python between pieces, so Ctrl-C is honoured and ``progress(t_done, duration)`` is called
     after each)."""
-    dur = _finite("duration", duration, "must be a positive time")
+    dur = finite("duration", duration, "must be a positive time")
     if dur <= 0:
         raise InputError(f"duration = {duration!r}: must be a positive time")
     samples_per_delay = _count("samples_per_delay", samples_per_delay, 1,
@@ -513,9 +513,9 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
             # pull-back across an event surface is reported as the integrator would
             # (nld.analysis.lyapunov: without it every renormalisation injected a force
             # difference and lambda1 of slider_crank_olyaei came out 3-7x too large)
-            from nld.analysis.lyapunov import _cross_events, _rescale_memory
-            _rescale_memory(system, z, zo, 0.0 if hold_memory else a)
-            _cross_events(system, t, yn_o, yo, zo)
+            from nld.analysis.lyapunov import cross_events, rescale_memory
+            rescale_memory(system, z, zo, 0.0 if hold_memory else a)
+            cross_events(system, t, yn_o, yo, zo)
         h_r, h_o = r.h_last, o.h_last
     logs = logs[int(align):]
     lam = float(np.mean(logs) / interval)
@@ -997,10 +997,10 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     base = system if getattr(system, "p", None) is not None else m
     pi, pname = _param_index(getattr(m, "flow", None) or getattr(m, "system", None) or base,
                              param, "param")
-    dp_max = _finite("dp_max", dp_max, "must be a positive number (parameter unit)")
+    dp_max = finite("dp_max", dp_max, "must be a positive number (parameter unit)")
     if dp_max <= 0:
         raise InputError(f"dp_max = {dp_max!r}: must be a positive number (parameter unit)")
-    radius = _finite("radius", radius, "must be a positive scaled distance")
+    radius = finite("radius", radius, "must be a positive scaled distance")
     if radius <= 0:
         raise InputError(f"radius = {radius!r}: must be a positive scaled distance")
     n_iter = _count("n_iter", n_iter, 1, "iterations of the map under control")

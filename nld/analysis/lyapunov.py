@@ -476,14 +476,14 @@ def _flow_settings(system, transient, total, renorm_interval, d0, rtol, spectrum
     return float(transient), n_int, float(renorm_interval), float(d0), float(rtol)
 
 
-def _rescale_memory(system, z, zp, factor):
+def rescale_memory(system, z, zp, factor):
     """Renormalisation of the perturbed copy's memory states (``system.memory``: a contact
     law's approach velocity recorded at onset) together with its continuous state: where both
     trajectories are in the same contact (both memories set), the copy's memory is put back on
     the line to the reference's by the same factor as the state, zp = z + factor (zp - z), i.e.
     to what the memory of the rescaled copy is to first order. Where only one of them is in
     contact the copy's memory is its own (its onset or separation is handled by
-    ``_cross_events``). Without this the copy keeps, for the rest of a contact, the memory of a
+    ``cross_events``). Without this the copy keeps, for the rest of a contact, the memory of a
     trajectory it is no longer near, and every renormalisation injects a spurious force
     difference (docs/lyapunov.md, "The discrete state")."""
     for m in system.memory:
@@ -491,7 +491,7 @@ def _rescale_memory(system, z, zp, factor):
             zp[m] = z[m] + factor * (zp[m] - z[m])
 
 
-def _cross_events(system, t, y_old, y_new, z):
+def cross_events(system, t, y_old, y_new, z):
     """Renormalisation moves a perturbed state from y_old to y_new. Where that jump crosses an
     event surface (g_k changes sign) the crossing is reported to ``on_event`` as the integrator
     would, so the discrete state stays consistent: a scene records the approach velocity of a
@@ -535,7 +535,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
 
     The local rate of interval i is (sum of ln(d/d0) over its renormalisations) / T; the exponent
     is their mean. A renormalisation that moves the perturbed state across an event surface
-    (a contact onset) reports the crossing to the system's ``on_event`` (see _cross_events).
+    (a contact onset) reports the crossing to the system's ``on_event`` (see cross_events).
     """
     rng = np.random.default_rng(check_seed(seed))
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
@@ -602,8 +602,8 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
                 if c == checks - 1 or d > max_growth * d0:
                     acc += math.log(d / d0)
                     yp_new = y + (d0 / d) * dy
-                    _rescale_memory(system, z, zp, d0 / d)
-                    _cross_events(system, tb, yp, yp_new, zp)
+                    rescale_memory(system, z, zp, d0 / d)
+                    cross_events(system, tb, yp, yp_new, zp)
                     yp = yp_new
                     n_renorm += 1
             rates[i] = acc / T
@@ -747,7 +747,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
                     for a, m in enumerate(mem):
                         if both[a, j]:
                             zp[j][m] = z[m] + Zn[a, j]
-                _cross_events(system, t1, yp[j], yj, zp[j])
+                cross_events(system, t1, yp[j], yj, zp[j])
                 yp[j] = yj
         settings = dict(transient=transient, total=n_int * T, renorm_interval=T, d0=d0,
                         rtol=rtol, seed=seed, n_blocks=n_blocks, norm="scaled",

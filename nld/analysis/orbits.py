@@ -278,7 +278,7 @@ class PeriodicOrbit:
 # evaluation of the shooting residual
 
 
-class _Shooting:
+class Shooting:
     """The residual and Jacobian of (multiple) shooting on a map, in scaled variables."""
 
     def __init__(self, m, p: int, multiple: bool):
@@ -345,7 +345,7 @@ class _Shooting:
         return np.array(out)
 
 
-def _finite(a) -> bool:
+def finite(a) -> bool:
     return bool(np.all(np.isfinite(a)))
 
 
@@ -358,7 +358,7 @@ def _solve_step(J, r, lam: float = 0.0):
     return np.linalg.lstsq(J, -r, rcond=1e-12)[0]
 
 
-def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
+def _newton(sh: Shooting, X, Z, tol: float, max_iter: int, progress=None):
     """Damped Newton / Levenberg-Marquardt on the shooting residual. Returns (X, Z, r, J,
     steps, iterations, converged, message)."""
     p, N, s = sh.p, sh.N, sh.s
@@ -370,7 +370,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
         return (np.asarray(Xs)[: (p if sh.multiple else 1)] / s).ravel()
 
     r, J, steps = sh.evaluate(X, Z, True)
-    if not _finite(r) or not _finite(J):
+    if not finite(r) or not finite(J):
         return X, Z, r, J, steps, 0, False, "the map is not finite at the guess"
     res = float(np.max(np.abs(r)))
     best = (res, X, Z, r, J, steps)
@@ -399,7 +399,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
                     rt, Jt, st = sh.evaluate(Xt, Zt, full)
                 except SolveError:
                     rt = None
-                if rt is not None and _finite(rt):
+                if rt is not None and finite(rt):
                     rest = float(np.max(np.abs(rt)))
                     if rest < (1.0 - 1e-4 * alpha) * res or rest <= tol:
                         if not full:
@@ -410,7 +410,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
                                 rest = float(np.max(np.abs(rt)))
                             except SolveError:
                                 Jt = None
-                        if Jt is not None and _finite(Jt) and _finite(rt):
+                        if Jt is not None and finite(Jt) and finite(rt):
                             accepted = True
                             break
                 alpha *= 0.25
@@ -447,8 +447,8 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
             rt, Jt, st = sh.evaluate(Xt, [np.array(z) for z in Z], True)
         except (SolveError, np.linalg.LinAlgError):
             break
-        rest = float(np.max(np.abs(rt))) if _finite(rt) else math.inf
-        if not (rest <= 0.25 * res) or not _finite(Jt):
+        rest = float(np.max(np.abs(rt))) if finite(rt) else math.inf
+        if not (rest <= 0.25 * res) or not finite(Jt):
             break
         it += 1
         X = Xt
@@ -481,7 +481,7 @@ def _match(a, b) -> np.ndarray:
     return err
 
 
-def _orbit_monodromy(steps, p):
+def orbit_monodromy(steps, p):
     M = np.eye(steps[0].M.shape[0])
     for st in steps[:p]:
         M = st.M @ M
@@ -557,7 +557,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         Z = [z0.copy() for _ in range(len(X))]
     if not multiple:
         X, Z = X[:1], Z[:1]
-    sh = _Shooting(m, p, multiple)
+    sh = Shooting(m, p, multiple)
     Xs, Zs, r, J, steps, it, converged, message = _newton(sh, np.asarray(X), Z, tol,
                                                         int(max_iter), progress)
     points = Xs if multiple else sh.points_after(Xs, steps)
@@ -569,7 +569,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         why = _equilibrium(m, points, zs, [st.time for st in steps[:p]], max(res, tol))
         if why:
             converged, message = False, why
-    M = _orbit_monodromy(steps, p)
+    M = orbit_monodromy(steps, p)
     det_check = None
     onsets = np.sum([st.onsets for st in steps], axis=0) if len(getattr(steps[0], "onsets", [])) \
         else np.zeros(0, dtype=np.int64)
@@ -593,7 +593,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         for i in range(p):
             steps2.append(m2.step(points[i], zs[i], jacobian=True, divergence=True,
                                    relabel=True))
-        M2 = _orbit_monodromy(steps2, p)
+        M2 = orbit_monodromy(steps2, p)
         err = _match(mu, multipliers(M2))
         if m.memory.size == 0 and isinstance(m, StroboscopicMap):
             ld = float(np.linalg.slogdet(M2)[1])
@@ -888,14 +888,14 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
         for k, (Xs, Zs) in enumerate(starts):
             if progress is not None:
                 progress(p, k, len(starts))
-            if not _finite(Xs) or np.max(np.abs(Xs)) > 1e8 * np.max(m.scales):
+            if not finite(Xs) or np.max(np.abs(Xs)) > 1e8 * np.max(m.scales):
                 continue
             try:
                 orb = periodic_orbit(m, p, np.array(Xs), z=Zs[0], tol=tol, check=is_flow,
                                      max_iter=20 if is_flow else 12)
             except (SolveError, FloatingPointError, np.linalg.LinAlgError, ValueError):
                 continue
-            if not orb.converged or not _finite(orb.points):
+            if not orb.converged or not finite(orb.points):
                 continue
             if prime_period(m, orb.points, max(dedup_tol, 10 * orb.tolerance)) != p:
                 continue

@@ -86,7 +86,7 @@ def _is_system(obj) -> bool:
     return hasattr(obj, "is_map") and hasattr(obj, "solve") and hasattr(obj, "y0")
 
 
-def _load(scene, overrides):
+def load_scene_arg(scene, overrides):
     """Scene from a Scene/name/path plus overrides (as nld.run.simulate does)."""
     from nld.model.scene import resolve_scene
     from nld.run.simulate import check_scene_arg
@@ -115,7 +115,7 @@ def check_scene_observables(scene, observables, overrides=None) -> list[str]:
     """``observables`` (a list or comma-separated text) checked against the table columns of
     ``scene`` (with ``overrides``); InputError naming the first unknown one and the columns."""
     from nld.kernel.compile import compile_scene
-    kern = compile_scene(_load(scene, overrides))
+    kern = compile_scene(load_scene_arg(scene, overrides))
     return _check_observables(observables, ["t"] + list(kern.columns))
 
 
@@ -131,7 +131,7 @@ def _check_observables(observables, available, what="column") -> list[str]:
     return observables
 
 
-def _check_count(name, v, minimum):
+def check_count(name, v, minimum):
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
         raise InputError(f"{name} = {v!r}: must be an integer >= {minimum}")
     return int(v)
@@ -179,8 +179,8 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
     from nld.settings import check_rtol
     from nld.run.simulate import INTERRUPTED, MAX_OUTPUT_BYTES, interrupted_message
     from nld.systems.derived import StroboscopicMap
-    transient_revs = _check_count("transient_revs", transient_revs, 0)
-    revs = _check_count("revs", revs, 1)
+    transient_revs = check_count("transient_revs", transient_revs, 0)
+    revs = check_count("revs", revs, 1)
     sc = kern = None
     if _is_system(scene):
         system = scene
@@ -202,7 +202,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
         from nld.kernel.compile import compile_scene
         from nld.run.simulate import state_arg, initial_state
         from nld.systems.core import SceneSystem
-        sc = _load(scene, overrides)
+        sc = load_scene_arg(scene, overrides)
         if sc.driver is None or sc.driver.mode != "speed":
             raise InputError(f"scene {sc.name!r}: a stroboscopic section needs a speed-driven "
                              "crank (driver.mode = \"speed\"); use hyperplane_section for a "
@@ -362,7 +362,7 @@ class _Flow:
 def _scene_flow(scene, overrides, kernel):
     from nld.kernel.compile import compile_scene
     from nld.systems.core import SceneSystem
-    sc = _load(scene, overrides)
+    sc = load_scene_arg(scene, overrides)
     kern = kernel if kernel is not None else compile_scene(sc)
     system = SceneSystem(sc, kernel=kern)
     mod, p = kern.module, system.p
@@ -473,7 +473,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     if dt is None:
         if period is None:
             raise InputError("no period known: give dt (s), the output grid step")
-        samples_per_rev = _check_count("samples_per_rev", samples_per_rev, 4)
+        samples_per_rev = check_count("samples_per_rev", samples_per_rev, 4)
         dt = period / samples_per_rev
     n_grid = int(math.ceil((t_end - t_transient) / dt)) + 1
     grid = np.ascontiguousarray(np.linspace(t_transient, t_end, n_grid))
