@@ -112,25 +112,10 @@ def _state_index(system, value, field_name: str) -> tuple[int, str]:
 
 
 def _param_index(system, value, field_name: str) -> tuple[int, str]:
-    p = np.asarray(getattr(system, "p", np.zeros(0)))
-    names = list(getattr(system, "param_names", []) or [])
-    layout = getattr(getattr(system, "kernel", None), "layout", None)
-    if isinstance(value, str) and layout is not None and not names:
-        # a scene: its parameter vector's layout (nld.model.parameters), e.g. loads.0.value
-        if value not in layout.index:
-            raise InputError(f"{field_name} = {value!r}: no such entry of the scene's parameter "
-                             f"vector; entries: {', '.join(layout.names)}")
-        return int(layout.index[value]), value
-    if isinstance(value, str):
-        if value not in names:
-            raise InputError(f"{field_name} = {value!r}: no such parameter of "
-                             f"{getattr(system, 'name', 'the system')}; parameters: "
-                             f"{', '.join(names) if names else '(unnamed: give an index of p)'}")
-        return names.index(value), value
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and 0 <= value < p.size:
-        return int(value), names[int(value)] if int(value) < len(names) else f"p[{int(value)}]"
-    raise InputError(f"{field_name} = {value!r}: a parameter name or an index of p "
-                     f"(0..{p.size - 1})")
+    """(index of p, label) of the parameter ``value`` of ``system`` (``System.parameter_index``)."""
+    i = system.parameter_index(value, field_name)
+    names = list(system.param_names)
+    return i, value if isinstance(value, str) else (names[i] if i < len(names) else f"p[{i}]")
 
 
 # ---------------------------------------------------------------- delayed feedback
@@ -958,28 +943,9 @@ def _ackermann(M: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.linalg.solve(C.T, en) @ phi
 
 
-class _Param:
-    """Set parameter ``index`` of a map's p in place (and restore)."""
-
-    def __init__(self, m, index):
-        self.p = m.flow.p if getattr(m, "flow", None) is not None else m.p
-        self.index = index
-        self.value0 = float(self.p[index])
-
-    def set(self, dp):
-        self.p[self.index] = self.value0 + dp
-
-    def reset(self):
-        self.p[self.index] = self.value0
-
-
-def _step_p(m, par, x, z, dp):
-    par.set(dp)
-    try:
-        st = m.step(x, z)
-    finally:
-        par.reset()
-    return st
+def _step_p(m, pi, value0, x, z, dp):
+    """One step of the map ``m`` with parameter ``pi`` (an index of p) at value0 + dp."""
+    return m.with_parameter(pi, value0 + dp).step(x, z)
 
 
 def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: float,
@@ -991,12 +957,10 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     (scaled distance: |(x - x*) / scales|) bound the control; n_iter iterations from x0 (default
     the system's initial state, i.e. the chaotic motion). orbit: the target PeriodicOrbit
     (default ``periodic_orbit(system, period)``)."""
-    from nld.analysis.orbits import periodic_orbit
+    from nld.analysis.orbits import map_source, periodic_orbit
     from nld.systems.derived import as_map
     m = as_map(system)
-    base = system if getattr(system, "p", None) is not None else m
-    pi, pname = _param_index(getattr(m, "flow", None) or getattr(m, "system", None) or base,
-                             param, "param")
+    pi, pname = _param_index(map_source(m), param, "param")
     dp_max = finite("dp_max", dp_max, "must be a positive number (parameter unit)")
     if dp_max <= 0:
         raise InputError(f"dp_max = {dp_max!r}: must be a positive number (parameter unit)")
@@ -1012,14 +976,14 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     if not orbit.converged:
         raise InputError(f"period = {period!r}: no orbit of that period found ({orbit.message})")
     q = orbit.period
-    par = _Param(m, pi)
-    h = float(fd_step) if fd_step is not None else 1e-6 * max(1.0, abs(par.value0))
+    v0 = m.parameter(pi)
+    h = float(fd_step) if fd_step is not None else 1e-6 * max(1.0, abs(v0))
     A, W = [], []
     for i in range(q):
         st = m.step(orbit.points[i], orbit.z[i], jacobian=True)
         A.append(st.M)
-        xp = _step_p(m, par, orbit.points[i], orbit.z[i], h).x
-        xm = _step_p(m, par, orbit.points[i], orbit.z[i], -h).x
+        xp = _step_p(m, pi, v0, orbit.points[i], orbit.z[i], h).x
+        xm = _step_p(m, pi, v0, orbit.points[i], orbit.z[i], -h).x
         W.append(m.difference(xp, xm) / (2 * h))
     K = np.zeros((q, m.n))
     Wq = []
@@ -1063,7 +1027,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
                 act[k] = True
                 hold = q - 1
         dps[k] = dp
-        st = _step_p(m, par, x, z, dp) if dp != 0.0 else m.step(x, z)
+        st = _step_p(m, pi, v0, x, z, dp) if dp != 0.0 else m.step(x, z)
         x, z = st.x, st.z
         X[k + 1] = x
         Zs.append(None if z is None else np.array(z, dtype=float))

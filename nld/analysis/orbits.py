@@ -53,7 +53,7 @@ from numba import njit
 from nld.errors import InputError, SolveError
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map, never_reset
 
-__all__ = ["PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_period",
+__all__ = ["map_source", "PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_period",
            "section_points", "prime_period"]
 
 DEFAULT_MAX_ITER = 30
@@ -103,6 +103,12 @@ def _whole(value, field: str, least: int) -> int:
         raise InputError(f"{field} = {value!r}: must be a whole number >= {least}")
     return int(value)
 
+
+
+def map_source(m):
+    """The system under the map ``m`` of an orbit analysis (``nld.systems.derived.as_map``): the
+    flow of a derived map, the DiscreteMap of a wrapped one; whose parameters the map has."""
+    return m.system if isinstance(m, NumbaMap) else m.flow
 
 @dataclass
 class PeriodicOrbit:
@@ -231,9 +237,9 @@ class PeriodicOrbit:
         if isinstance(n_per_period, bool) or not isinstance(n_per_period, (int, np.integer)) \
                 or n_per_period < 2:
             raise InputError(f"n_per_period = {n_per_period!r}: must be an integer >= 2")
-        kern = getattr(getattr(m, "flow", None), "kernel", None)
-        if kern is None or not isinstance(m, StroboscopicMap):
+        if not isinstance(m, StroboscopicMap) or not m.flow.is_scene:
             raise InputError("observe(): only for an orbit of a scene's stroboscopic map")
+        kern = m.flow.kernel
         cols = [columns] if isinstance(columns, str) else list(columns)
         bad = [c for c in cols if c not in kern.columns]
         if bad:
@@ -537,7 +543,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise InputError(f"max_iter = {max_iter!r}: must be an integer >= 1")
     m = as_map(system, rtol)
-    if rtol is not None and getattr(m, "rtol", rtol) != rtol and not isinstance(m, NumbaMap):
+    if rtol is not None and not isinstance(m, NumbaMap) and m.rtol != rtol:
         m = _with_rtol(m, float(rtol))
     check_size(p, m.n)
     multiple = shooting == "multiple" or (shooting == "auto" and p >= 2)
@@ -571,7 +577,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
             converged, message = False, why
     M = orbit_monodromy(steps, p)
     det_check = None
-    onsets = np.sum([st.onsets for st in steps], axis=0) if len(getattr(steps[0], "onsets", [])) \
+    onsets = np.sum([st.onsets for st in steps], axis=0) if len(steps[0].onsets) \
         else np.zeros(0, dtype=np.int64)
     mins = (np.min([st.min_approach for st in steps], axis=0) if steps[0].min_approach.size
             else np.zeros(0))
@@ -603,21 +609,21 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     n_neutral = 0
     if m.memory.size and onsets.size:
         # a memory entry of a joint without an onset on the orbit is never reset
-        kern = getattr(m.flow, "kernel", None)
+        scene = m.flow.is_scene       # a memory entry: a scene's by its joint, else by its index
         for j, zi in enumerate(m.memory):
-            ci = int(zi) if kern is not None else j
+            ci = int(zi) if scene else j
             if ci < onsets.size and onsets[ci] == 0:
                 n_neutral += 1
     continuum = n_neutral > 0
     stable, unc = multiplier_stability(mu, err, n_neutral, res)
     settings = {"period": p, "shooting": "multiple" if multiple else "single",
-                "rtol": getattr(m, "rtol", None), "tol": tol, "max_iter": int(max_iter),
+                "rtol": m.rtol, "tol": tol, "max_iter": int(max_iter),
                 "transient": int(transient), "map": repr(m)}
     return PeriodicOrbit(p, np.asarray(points), [np.array(q) for q in zs], res, tol, converged, it,
                          message, mu, err, M, stable if converged else None,
                          onsets.astype(np.int64), int(np.sum(onsets)) if onsets.size else 0,
                          float(np.min(mins)) if mins.size else math.inf, continuum, det_check,
-                         list(m.state_names), getattr(system, "name", m.name), settings, m,
+                         list(m.state_names), system.name, settings, m,
                          unc if converged else math.nan,
                          np.array([float(st.time) for st in steps[:p]]) if not
                          isinstance(m, NumbaMap) else np.zeros(0), n_neutral)

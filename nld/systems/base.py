@@ -153,6 +153,12 @@ class System:
         raise InputError(f"{field} = {key!r}: a parameter name or an index of p "
                          f"(0..{self.p.size - 1})")
 
+    def parameter_index(self, key, field: str = "param") -> int:
+        """The index of p that ``key`` addresses (a name of param_names or an index of p; a scene:
+        also a name of its parameter layout), for an analysis that perturbs p itself (a
+        controller's input); InputError naming ``field``, the key and what is allowed otherwise."""
+        return self._param_index(key, field)
+
     def parameter(self, key) -> float:
         """The value of the parameter ``key`` (a name of param_names or an index of p)."""
         return float(self.p[self._param_index(key)])
