@@ -62,6 +62,7 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError, SolveError
+from nld.systems.rossler import rossler  # noqa: F401  (the reference flow; defined with the built-in systems)
 from nld.integrators import method_status_message
 from nld.integrators.delay import (PARAM, STATE, DelayLaw, History, combine_histories,
                                    constant_history, dde, history_eval)
@@ -70,7 +71,6 @@ __all__ = ["DelayedFeedback", "delayed_feedback", "pyragas", "edfc", "DelayedRun
            "run_delayed", "DelayLyapunov", "delayed_lyapunov", "ControlResult",
            "control_delayed", "effort_decay_rate", "DomainScan", "stability_domain", "OddNumberVerdict",
            "odd_number_limitation", "OGYResult", "ogy", "orbit_states", "distance_to_orbit",
-           "rossler",
            "RTOL", "D0", "SEGMENT_SAMPLES", "CAPTURE_FRACTION"]
 
 RTOL = 1e-9               # relative tolerance of the delay integrations (atol: system.tolerance)
@@ -323,8 +323,8 @@ def check_delay_size(system, fb: DelayedFeedback, duration: float, samples_per_d
                f"at least {steps:.3g} steps, the step being capped at the delay (limit "
                f"{MAX_STEPS:.3g})")
         raise InputError(f"{field} = {fb.delay!r}: a delay that short makes the {duration:.6g} "
-                         f"{getattr(system, 'time_unit', 's')} run need {why}; the shortest "
-                         f"delay that fits is {shortest:.3g} {getattr(system, 'time_unit', 's')}")
+                         f"{system.time_unit} run need {why}; the shortest "
+                         f"delay that fits is {shortest:.3g} {system.time_unit}")
 
 
 def _check_run(run: DelayedRun, what: str):
@@ -428,7 +428,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     where the memory is never reset and its direction is neutral (multiplier 1 exactly:
     docs/orbits.md, "Memory state"); default False: the memory follows the state (Benettin)."""
     if transverse is None:
-        transverse = getattr(system, "period", None) is None
+        transverse = system.period is None
     tau = fb.delay
     interval = float(tau if interval is None else interval)
     n_int = int(round(float(span) / interval))
@@ -443,11 +443,11 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     steps = 2.0 * (n_int + int(align)) * interval / tau
     if steps > MAX_STEPS:
         raise InputError(f"delay = {tau!r}: a delay that short makes lambda1 over "
-                         f"{(n_int + int(align)) * interval:.6g} {getattr(system, 'time_unit', 's')}"
+                         f"{(n_int + int(align)) * interval:.6g} {system.time_unit}"
                          f" need at least {steps:.3g} steps of its two trajectories, the step "
                          f"being capped at the delay (limit {MAX_STEPS:.3g}); the shortest delay "
                          f"that fits is {steps * tau / MAX_STEPS:.3g} "
-                         f"{getattr(system, 'time_unit', 's')}")
+                         f"{system.time_unit}")
     t = float(system.t0 if t0 is None else t0)
     y = np.array(system.y0 if y0 is None else y0, dtype=float)
     z = np.array(system.z0 if z0 is None else z0, dtype=float)
@@ -493,7 +493,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
         hist = r.history
         ho = combine_histories(r.history, o.history, a, t - span_seg, shift=c)
         yo = y + a * (yn_o - y - c * _field_at(system, fb, law, r.history, t, y, z))
-        if getattr(system, "memory", np.zeros(0)).size:
+        if system.memory.size:
             # a contact law's memory (approach velocity at onset) follows the state, and a
             # pull-back across an event surface is reported as the integrator would
             # (nld.analysis.lyapunov: without it every renormalisation injected a force
@@ -559,12 +559,25 @@ class ControlResult:
         return self.uncertainty_uncontrolled
 
     def to_dict(self) -> dict:
-        keys = ("lambda1_uncontrolled", "lambda1_controlled", "lambda1_uncertainty",
-                "lambda1_controlled_uncertainty", "lambda1_uncontrolled_uncertainty",
-                "effort_rms_initial", "effort_rms_final", "captured_at", "orbit_distance",
-                "periodicity", "onsets_per_period", "uncertainty_uncontrolled",
-                "uncertainty_controlled", "effort_decay_rate", "status", "message", "settings")
-        return {k: getattr(self, k) for k in keys}
+        return {"lambda1_uncontrolled": self.lambda1_uncontrolled,
+                "lambda1_controlled": self.lambda1_controlled,
+                "lambda1_uncertainty": self.lambda1_uncertainty,
+                "lambda1_controlled_uncertainty": self.lambda1_controlled_uncertainty,
+                "lambda1_uncontrolled_uncertainty": self.lambda1_uncontrolled_uncertainty,
+                "effort_rms_initial": self.effort_rms_initial,
+                "effort_rms_final": self.effort_rms_final, "captured_at": self.captured_at,
+                "orbit_distance": self.orbit_distance, "periodicity": self.periodicity,
+                "onsets_per_period": self.onsets_per_period,
+                "uncertainty_uncontrolled": self.uncertainty_uncontrolled,
+                "uncertainty_controlled": self.uncertainty_controlled,
+                "effort_decay_rate": self.effort_decay_rate, "status": self.status,
+                "message": self.message, "settings": self.settings}
+
+
+def _is_orbit(x) -> bool:
+    """Whether x is a PeriodicOrbit (else: an array of states or of multipliers)."""
+    from nld.analysis.orbits import PeriodicOrbit
+    return isinstance(x, PeriodicOrbit)
 
 
 def orbit_states(orbit, n: int = 2000) -> np.ndarray:
@@ -602,7 +615,7 @@ def orbit_period_time(orbit) -> float:
 def _wrap_angles(system, D: np.ndarray) -> np.ndarray:
     """Differences D (..., n) with the system's angle states (``angle_states``: a scene's crank
     and joint angles, whole turns one state) brought into [-pi, pi); others unchanged."""
-    idx = np.asarray(getattr(system, "angle_states", np.zeros(0, dtype=np.int64)), dtype=np.int64)
+    idx = np.asarray(system.angle_states, dtype=np.int64)
     if idx.size:
         D = np.array(D, dtype=float)
         D[..., idx] -= 2.0 * math.pi * np.floor((D[..., idx] + math.pi) / (2.0 * math.pi))
@@ -638,7 +651,7 @@ def distance_to_orbit(system, Y, target) -> float:
     """The largest scaled distance of the states Y (k, n) to a target orbit's curve (a
     PeriodicOrbit, or an (m, n) array of its states), angles modulo 2 pi: the ``orbit_distance``
     of :class:`ControlResult`."""
-    curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
+    curve = orbit_states(target) if _is_orbit(target) else np.asarray(target, dtype=float)
     return _distance_to_curve(system, Y, curve)
 
 
@@ -709,7 +722,7 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         if run.Y.shape[0] > 2 * spd else math.nan
     dist = None
     if target is not None:
-        curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
+        curve = orbit_states(target) if _is_orbit(target) else np.asarray(target, dtype=float)
         dist = _distance_to_curve(system, last, curve)
     onsets = None
     if int(system.n_events) > 0:
@@ -720,7 +733,7 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         onsets = float(np.count_nonzero(sel)) / (0.25 * duration / tau)
     # permanent contact on the controlled motion (no onset in the last quarter, a contact law
     # with memory): lambda1 conditional on the memory, whose direction is neutral there
-    hold = bool(getattr(system, "memory", np.zeros(0)).size) and onsets == 0.0
+    hold = bool(system.memory.size) and onsets == 0.0
     lam_c = delayed_lyapunov(system, fb, lspan, y0=run.y, z0=run.z, t0=run.t[-1],
                              history=run.history, t_break0=run.t_break0, rtol=rtol,
                              interval=lyapunov_interval, d0=d0, hold_memory=hold)
@@ -821,7 +834,7 @@ def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=No
                         # permanent contact over the transient's second half: lambda1
                         # conditional on the contact memory (control_delayed, docs/control.md)
                         late = run.ev_t >= run.t[-1] - 0.5 * transient
-                        hold = bool(getattr(system, "memory", np.zeros(0)).size) and \
+                        hold = bool(system.memory.size) and \
                             int(system.n_events) > 0 and not np.any(late & (run.ev_dir > 0))
                     else:
                         y = None
@@ -858,10 +871,10 @@ def odd_number_limitation(orbit_or_multipliers, *, autonomous: bool | None = Non
     multipliers. ``autonomous``: whether the orbit is of an autonomous flow (default: from the
     orbit's map; multipliers alone: False)."""
     mu = orbit_or_multipliers
-    if hasattr(mu, "multipliers"):
+    if _is_orbit(mu):
         from nld.systems.derived import PoincareMap
         if autonomous is None:
-            autonomous = isinstance(getattr(mu, "map", None), PoincareMap)
+            autonomous = isinstance(mu.map, PoincareMap)
         mu = mu.multipliers
     mu = np.atleast_1d(np.asarray(mu, dtype=complex))
     real = np.abs(mu.imag) <= tol * np.maximum(np.abs(mu), 1.0)
@@ -996,7 +1009,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
             w = A[(i + j) % q] @ w
         Wq.append((M, w))
         K[i] = _ackermann(M, w)
-    if getattr(orbit, "stable", None) is True:
+    if orbit.stable is True:
         # stable without control (a neutral contact-memory multiplier of a continuum excepted,
         # nld.analysis.orbits): nothing to place, whatever rounding says of |mu| = 1
         K[:] = 0.0
@@ -1066,14 +1079,14 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         lam_c = acc / win
     ok = captured is not None and dist_final < radius
     status = "controlled" if ok else "not controlled"
-    name = f"{getattr(system, 'name', m.name)}: OGY on {pname}, period {q}: "
+    name = f"{system.name}: OGY on {pname}, period {q}: "
     applied = bool(np.any(dps != 0.0))
     if not np.any(K):
         # a stable target: the pole placement moves nothing, no perturbation is ever applied;
         # whatever the motion does is the free system's (issue 37): no controlled run to report
         status = "nothing to control"
         amu = np.sort(np.abs(np.asarray(orbit.multipliers)))[::-1]
-        cont = bool(getattr(orbit, "continuum", False)) and amu.size > 1
+        cont = bool(orbit.continuum) and amu.size > 1
         if cont:      # the neutral contact-memory multiplier (1) left out, as orbits does
             amu = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
         mu_max = float(amu[0]) if amu.size else 0.0
@@ -1113,23 +1126,3 @@ def _jacobian_lambda(m, x, z, n: int) -> float:
         v /= nv
         x, z = st.x, st.z
     return acc / n
-
-
-# ---------------------------------------------------------------- the reference flow
-def rossler(a: float = 0.2, b: float = 0.2, c: float = 5.7, y0=(1.0, 1.0, 1.0)):
-    """The Rössler system x' = -y - z, y' = x + a y, z' = b + z (x - c) (Rössler 1976), at
-    Pyragas' (1992) a = b = 0.2, c = 5.7 chaotic (lambda1 ~ 0.07 per time unit) with a period-1
-    unstable orbit of period ~ 5.88 (docs/control.md: found by periodic_orbit)."""
-    from nld.systems.core import ContinuousSystem
-    s = ContinuousSystem(rossler_rhs, y0, [a, b, c], f"rossler(a={a:g}, b={b:g}, c={c:g})",
-                         ["x", "y", "z"])
-    s.param_names = ["a", "b", "c"]
-    return s
-
-
-@njit(cache=True)
-def rossler_rhs(t, y, p, z, dy):
-    """Rössler (1976); p = [a, b, c]."""
-    dy[0] = -y[1] - y[2]
-    dy[1] = y[0] + p[0] * y[1]
-    dy[2] = p[1] + y[2] * (y[0] - p[2])
