@@ -67,6 +67,7 @@ import numpy as np
 
 from nld.analysis.poincare import section_period
 from nld.errors import InputError, SolveError
+from nld.settings import CENSUS_DEFAULTS
 from nld.systems.derived import NumbaMap, PoincareMap
 
 __all__ = ["Attractor", "CensusResult", "census", "census_sweep", "match_attractors",
@@ -75,10 +76,9 @@ __all__ = ["Attractor", "CensusResult", "census", "census_sweep", "match_attract
 
 KINDS = ("periodic", "quasi-periodic", "chaotic", "permanent contact", "escaping")
 
-# documented defaults (docs/attractors.md); a scene's "period" is one crank revolution
-DEFAULTS = dict(starts=32, transient=50, record=100, max_period=16, period_tol=1e-4,
-                match_factor=3.0, lyapunov_members=2, rate_spread=0.5, escape=1e6, seed=0,
-                map_transient=1000, map_record=200)
+# documented defaults (docs/attractors.md): nld.settings.CENSUS_DEFAULTS; a scene's "period" is
+# one crank revolution
+DEFAULTS = CENSUS_DEFAULTS
 # a flow's run is *near-periodic* when its section repeats with period p to this scaled max-norm
 # over the whole recorded span (the scales: clearance, clearance x crank speed ...); the orbit
 # itself is then found by Newton shooting (``nld.analysis.orbits.periodic_orbit``) and the run is

@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError
-from nld.settings import BENETTIN, BENETTIN_SPANS, LYAPUNOV, TANGENT, TANGENT_SPANS, check_rtol
+from nld.settings import LYAPUNOV_DEFAULTS, TANGENT, check_rtol
 from nld.systems.core import (advance, builtin_map, builtin_map_jac, period_shift, restart_labels,
                               wrap_angles)
 
@@ -50,29 +50,9 @@ __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_ben
            "lyapunov_spectrum", "blocking_se", "interval_quantile", "uncertainty_from_rates",
            "lyapunov_nolds", "DEFAULTS"]
 
-# documented defaults (docs/lyapunov.md); "base" = the system's period (a scene: one crank
-# revolution), or 1 time unit for a flow without period. The settings shared with the command line
-# are nld.settings' (LYAPUNOV, TANGENT_SPANS, BENETTIN_SPANS, TANGENT, BENETTIN); the rest are here.
-DEFAULTS = {
-    # Benettin, flows: renorm_interval = base, checks = 32 per interval when the system has a
-    # period (else 1), early renormalisation when the separation exceeds max_growth * d0,
-    # transient = 20 base, total = 500 base
-    "flow": dict(rtol=LYAPUNOV.rtol, d0=BENETTIN.d0, max_growth=BENETTIN.max_growth,
-                 checks_with_period=BENETTIN.checks_per_period,
-                 transient_base=float(BENETTIN_SPANS.transient_revs),
-                 total_base=float(BENETTIN_SPANS.revs), interval_base=BENETTIN.interval_revs),
-    # perturbation vectors, flows: renorm_interval = base / 32 (period) or 0.1 (no period)
-    "spectrum_flow": dict(rtol=LYAPUNOV.rtol, d0=1e-5, transient_base=20.0, total_base=500.0,
-                          interval_period=1.0 / 32.0, interval_no_period=0.1),
-    "map": dict(d0=1e-9, renorm_interval=1, transient=1000, total=100_000),
-    # tangent dynamics, flows: renorm_interval = base / 8 (period) or 0.1 (no period),
-    # transient 20 base (state only), align 2 base (vectors, discarded), total 200 base
-    "tangent": dict(rtol=LYAPUNOV.rtol, transient_base=float(TANGENT_SPANS.transient_revs),
-                    align_base=TANGENT.align_revs, total_base=float(TANGENT_SPANS.revs),
-                    interval_period=TANGENT.interval_revs,
-                    interval_no_period=TANGENT.interval_no_period),
-    "n_blocks": TANGENT.n_blocks,
-}
+# documented defaults (docs/lyapunov.md): nld.settings.LYAPUNOV_DEFAULTS, with the settings shared
+# with the command line (LYAPUNOV, TANGENT_SPANS, BENETTIN_SPANS, TANGENT, BENETTIN)
+DEFAULTS = LYAPUNOV_DEFAULTS
 
 
 # ---------------------------------------------------------------- results
