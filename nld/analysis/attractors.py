@@ -369,9 +369,9 @@ def _flow_of(system):
 
 def _as_sampler(system, sampler, rate_spread):
     base = _flow_of(system)
-    z0 = np.asarray(getattr(base, "z0", np.zeros(0)), dtype=float)
+    z0 = np.asarray(base.z0, dtype=float)
     if sampler is None:
-        if getattr(base, "kernel", None) is not None:
+        if base.is_scene:
             return scene_sampler(base, rate_spread)
         raise InputError(f"sampler = None: {system.name} is not a scene; give sampler(rng) -> y "
                          f"(or (y, z)) or a box (lo, hi) of starting states")
@@ -763,7 +763,7 @@ _WORKER_CTX: dict = {}
 def _payload(system, ctx, workers, dask=None):
     """What a worker process needs to rebuild the system and the census settings: a scene's
     Scene and integrator (other systems hold numba functions that do not travel: None)."""
-    if getattr(system, "scene", None) is None or (workers == 1 and dask is None):
+    if not system.is_scene or (workers == 1 and dask is None):
         return None
     keys = ("rtol", "transient", "record", "max_period", "period_tol", "match_factor", "escape")
     return dict(scene=system.scene, method=system.method, event_samples=system.event_samples,
@@ -829,7 +829,7 @@ def _context(system, rtol, transient, record, max_period, period_tol, match_fact
         ctx["record_lyap"] = ctx["record"]
         return ctx
     if system.is_map:
-        if getattr(system, "is_derived", False):
+        if system.is_derived:
             raise InputError(f"{system.name}: give the forced flow itself (the census samples its "
                              f"stroboscopic section), or a PoincareMap of an autonomous flow")
         ctx.update(kind="map", map=None, orbit_map=NumbaMap(system), rtol=None, tol_floor=1e-10,
@@ -945,7 +945,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
     if not (0 < period_tol < 1):
         raise InputError(f"period_tol = {period_tol!r}: must be in (0, 1)")
     if section is not None:
-        if getattr(system, "is_map", False) or getattr(system, "period", None) is not None:
+        if system.is_map or system.period is not None:
             raise InputError("section: only for an autonomous flow (a forced flow is sampled "
                              "once per forcing period, a map is its own section)")
         if not isinstance(section, (tuple, list)) or len(section) not in (2, 3):
@@ -982,7 +982,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             kinds[i] = "escaping"
     attractors = []
     unsettled = []
-    pname = getattr(system, "period_name", "iteration" if system.is_map else "period")
+    pname = system.period_name or ("iteration" if system.is_map else "period")
     by_orbit = {}
     for i in sorted(on_orbit):
         by_orbit.setdefault(runs[i].orbit, []).append(i)

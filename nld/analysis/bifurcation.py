@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Iterable
 import os
 import time
 from dataclasses import dataclass, field
@@ -300,7 +301,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = BIFURCATION_SPANS.
     if not isinstance(param, str) or scene_value(raw, param) is NO_VALUE:
         raise InputError(f"param = {param!r}: not a value of scene {sc.name!r} (a --set key such as "
                          "driver.speed or joints.B.clearance)")
-    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+    if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
         from nld.errors import InputTypeError
         raise InputTypeError(f"values = {values!r}: must be a list or array of values (parse_values "
                              "reads 'START:STOP:NUM')")

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Iterable
 import os
 import time
 from dataclasses import dataclass
@@ -200,7 +201,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
                                rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
         lam, unc = float(res.exponent), float(res.uncertainty)
         per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
-        permanent = bool(getattr(res, "diagnostics", {}).get("permanent_contact", False))
+        permanent = bool(res.diagnostics.get("permanent_contact", False))
         if permanent:
             mem = res.diagnostics.get("conditional_on_memory", {})
             notes.append("permanent contact: no contact onset over the span, lambda conditional "
@@ -276,7 +277,7 @@ def _sections(frames) -> pd.DataFrame:
 
 
 def _values(v, name):
-    if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
+    if isinstance(v, (str, bytes)) or not isinstance(v, Iterable):
         from nld.errors import InputTypeError
         raise InputTypeError(f"{name} = {v!r}: must be a list or array of numbers")
     v = v.tolist() if isinstance(v, np.ndarray) else list(v)

@@ -1497,7 +1497,7 @@ def orbit_observable(system, orbit: PeriodicOrbit, name: str) -> np.ndarray:
     names = list(orbit.state_names)
     if name not in names:
         raise InputError(f"observable {name!r}: not a state ({', '.join(names)})"
-                         + (f" nor a column ({', '.join(kern.columns)})" if kern is not None else ""))
+                         + (f" nor a column ({', '.join(kern.columns)})" if system.is_scene else ""))
     return orbit.points[:, names.index(name)].copy()
 
 

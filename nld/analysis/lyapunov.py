@@ -264,7 +264,7 @@ def _spectrum_result(system, rates, weights, n_blocks, method, settings) -> "Spe
         total_uncertainty=_uncertainty(tse, tsp, rates.shape[0]),
         units=_units(system), local_rates=rates, method=method, system=system.name,
         period=period, settings=settings,
-        period_name=getattr(system, "period_name", "revolution"))
+        period_name=system.period_name or "revolution")
 
 
 def _units(system) -> str:
@@ -563,7 +563,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
         n_renorm = 0
         base = system.period if system.period is not None else 1.0
         bar = _progress_bar(n_int * T / base, f"lyapunov (benettin) {system.name}",
-                            "rev" if getattr(system, "period_name", "") == "revolution" else
+                            "rev" if system.period_name == "revolution" else
                             "periods", progress)
         for i in range(n_int):
             bar.update(T / base)
@@ -602,7 +602,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
         history_spread=spread,
         units=_units(system), local_rates=rates, method="benettin", system=system.name,
         period=period, settings=settings,
-        period_name=getattr(system, "period_name", "revolution"))
+        period_name=system.period_name or "revolution")
 
 
 # ---------------------------------------------------------------- spectrum
@@ -636,7 +636,7 @@ def _derived_map_spectrum(m, k, Q0, transient, total, n_blocks, seed) -> "Spectr
         x, z = st.x, st.z
     settings = dict(transient=n_tr, total=n_int, renorm_interval=1, seed=seed, n_blocks=n_blocks,
                     jacobian="monodromy (tangent integration with saltation)",
-                    rtol=getattr(m, "rtol", None))
+                    rtol=m.rtol)
     return _spectrum_result(m, rates, np.ones(n_int), n_blocks, "tangent QR of the derived map",
                             settings)
 
@@ -667,7 +667,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
     Q0 = np.linalg.qr(rng.standard_normal((n, k)))[0]
     Q0 = np.ascontiguousarray(Q0)
-    if getattr(system, "is_derived", False):
+    if system.is_derived:
         return _derived_map_spectrum(system, k, Q0, transient, total, n_blocks, seed)
     if system.is_map:
         n_tr, n_int, every = _map_settings(system, transient, total, renorm_interval)
@@ -867,7 +867,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         run = run_tangent(system, y, z, W, Wz, t - sh, (t - sh) + T * np.arange(1, n_al + 1),
                           rtol, tangent_err=tangent_err, h0=h)
         y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t + sh
-    n_ev = int(getattr(system, "n_events", 0))
+    n_ev = int(system.n_events)
     diag = crossing_diag(n_ev)          # + per event: smallest onset speed, onset count
     logs: list[np.ndarray] = []
     n_target = n_int
@@ -879,7 +879,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     chunk = max(1, int(round((base if system.period is not None else 1.0) / T)))
     chunk = min(max(chunk, n_int // 200), 100_000)
     bar = _progress_bar(n_max * T / base, f"lyapunov {system.name}",
-                        "rev" if getattr(system, "period_name", "") == "revolution" else
+                        "rev" if system.period_name == "revolution" else
                         ("periods" if system.period is not None else system.time_unit), progress)
     done = 0
     reached = None
@@ -949,7 +949,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
                     max_total=None if target_uncertainty is None else float(max_total),
                     target_reached=reached)
     period = system.period
-    pname = getattr(system, "period_name", "revolution")
+    pname = system.period_name or "revolution"
     if k == 1:
         est, hist, se, sp = _stats(rates[:, 0], weights, n_blocks)
         res = LyapunovResult(
@@ -1022,6 +1022,7 @@ def _import_nolds():
             try:
                 return orig(anchor)
             except TypeError:
+                # a module or a package object: importlib's anchor, not an nld system (a third party's shim)
                 name = anchor if isinstance(anchor, str) else getattr(anchor, "__name__", "")
                 return orig(name.rpartition(".")[0])
 

@@ -83,7 +83,9 @@ class Section:
 
 
 def _is_system(obj) -> bool:
-    return hasattr(obj, "is_map") and hasattr(obj, "solve") and hasattr(obj, "y0")
+    """A System (nld.systems.base), not a scene given by object, name or path."""
+    from nld.systems.base import System
+    return isinstance(obj, System)
 
 
 def load_scene_arg(scene, overrides):
@@ -241,7 +243,8 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
                          start=True, relabel=False, progress=progress, max_steps=max_steps,
                          desc=f"stroboscopic {sc.name if sc is not None else system.name}")
     except Interrupted as e:
-        if not hasattr(e.partial, "X"):
+        from nld.systems.derived import SectionRun
+        if not isinstance(e.partial, SectionRun):
             raise
         run, interrupted = e.partial, True
     n = run.t.size
@@ -298,7 +301,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
 
 def _method(system) -> str:
     """The integrator a system runs (``system.method``; dopri5 for a system without one)."""
-    return str(getattr(system, "method", None) or "dopri5")
+    return str(system.method or "dopri5")
 
 
 def _status_text(system, status, t_reached, stats) -> str:
@@ -487,7 +490,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     out = integrate_chunked(system.solve, 0.0, y, grid, False, system.p, z.copy(), float(rtol),
                             atol, hmax, int(max_steps), int(system.n_events), 1000,
                             period if period else math.inf, progress=progress, period=period,
-                            desc=f"poincare {getattr(system, 'name', '')}".strip())
+                            desc=f"poincare {system.name}".strip())
     status, t_reached, Y, n_out, st, Z = out[0], out[1], out[2], int(out[3]), out[4], out[9]
     interrupted = bool(out[-1])
     if status == INTERRUPTED:
@@ -601,7 +604,7 @@ def section_scales(scene, columns) -> np.ndarray:
     for i, col in enumerate(columns):
         joint, _, comp = str(col).rpartition(".")
         j = scene.joints.get(joint) if joint else None
-        if j is not None and comp in ("ex", "ey", "e") and getattr(j, "clearance", 0.0) > 0.0:
+        if j is not None and comp in ("ex", "ey", "e") and j.clearance > 0.0:
             out[i] = j.clearance
     return out
 

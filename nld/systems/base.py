@@ -116,7 +116,7 @@ class System:
     z0: np.ndarray = np.zeros(0)
     t0: float = 0.0
     period: float | None = None
-    period_name: str          # (no default: a DiscreteMap has none; the analyses' defaults apply)
+    period_name: str | None = None    # None: a DiscreteMap's (the analyses' defaults apply)
     period_index: int | None = None
     angle_states: np.ndarray = np.zeros(0, dtype=np.int64)
     memory: np.ndarray = np.zeros(0, dtype=np.int64)
