@@ -712,16 +712,8 @@ class SceneSystem(ContinuousSystem):
 
     def _scene_value(self, key: str):
         """The value at scene key ``key`` (a dotted path of the scene's dict), else None."""
-        from nld.model.scene import scene_to_dict
-        node = scene_to_dict(self.scene)
-        for part in key.split("."):
-            if isinstance(node, dict) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-                node = node[int(part)]
-            else:
-                return None
-        return node
+        from nld.model.scene import scene_value
+        return scene_value(self.scene, key, None)
 
     def parameter(self, key) -> float:
         """The value of a scene key (SI), or of an entry of p (layout name or index)."""
