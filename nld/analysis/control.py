@@ -81,7 +81,7 @@ MAX_STEPS = 10_000_000
 
 
 # ---------------------------------------------------------------- input checks
-def finite(name: str, value, allowed: str) -> float:
+def _finite(name: str, value, allowed: str) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -169,13 +169,13 @@ def delayed_feedback(system, gain, delay, signal, *, memory=0.0, input: str = "s
     index of p (a scene: an entry of its parameter vector, e.g. ``loads.0.value``,
     ``driver.torque``). InputError (one line: field, value, what is allowed) for a negative or zero
     delay, an unknown signal or target, R outside [0, 1), a gain that is not finite."""
-    K = finite("gain", gain, "K must be a finite number (unit of u per unit of the signal)")
-    tau = finite("delay", delay, "tau must be a positive finite time (the target orbit's "
+    K = _finite("gain", gain, "K must be a finite number (unit of u per unit of the signal)")
+    tau = _finite("delay", delay, "tau must be a positive finite time (the target orbit's "
                                   "period)")
     if tau <= 0:
         raise InputError(f"delay = {delay!r}: tau must be a positive finite time (the target "
                          f"orbit's period)")
-    R = finite("memory", memory, "R must be in [0, 1) (0: Pyragas)")
+    R = _finite("memory", memory, "R must be in [0, 1) (0: Pyragas)")
     if not 0.0 <= R < 1.0:
         raise InputError(f"memory = {memory!r}: R must be in [0, 1) (0: Pyragas; EDFC weights "
                          f"period k by R^(k-1))")
@@ -246,7 +246,7 @@ def run_delayed(system, fb: DelayedFeedback, duration: float, *, y0=None, z0=Non
     this time, each continuing the last from its history (the same run: control returns to
     Python between pieces, so Ctrl-C is honoured and ``progress(t_done, duration)`` is called
     after each)."""
-    dur = finite("duration", duration, "must be a positive time")
+    dur = _finite("duration", duration, "must be a positive time")
     if dur <= 0:
         raise InputError(f"duration = {duration!r}: must be a positive time")
     samples_per_delay = _count("samples_per_delay", samples_per_delay, 1,
@@ -974,10 +974,10 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     from nld.systems.derived import as_map
     m = as_map(system)
     pi, pname = _param_index(map_source(m), param, "param")
-    dp_max = finite("dp_max", dp_max, "must be a positive number (parameter unit)")
+    dp_max = _finite("dp_max", dp_max, "must be a positive number (parameter unit)")
     if dp_max <= 0:
         raise InputError(f"dp_max = {dp_max!r}: must be a positive number (parameter unit)")
-    radius = finite("radius", radius, "must be a positive scaled distance")
+    radius = _finite("radius", radius, "must be a positive scaled distance")
     if radius <= 0:
         raise InputError(f"radius = {radius!r}: must be a positive scaled distance")
     n_iter = _count("n_iter", n_iter, 1, "iterations of the map under control")
