@@ -79,3 +79,27 @@ def test_defaults_and_builtins_live_in_one_place():
     assert attractors.DEFAULTS is S.CENSUS_DEFAULTS and lyapunov.DEFAULTS is S.LYAPUNOV_DEFAULTS
     assert lyapunov.DEFAULTS["flow"]["rtol"] == S.LYAPUNOV.rtol
     assert control.rossler is rossler and rossler().param_names == ["a", "b", "c"]
+
+
+def test_several_scene_keys_are_one_parameter():
+    """Keys set together ("joints.A.clearance,joints.B.clearance", as the route to chaos varies
+    both clearances) are one parameter of a scene: with_parameter sets every key on the same
+    kernel, parameter gives their common value (InputError where they differ), and a
+    continuation family takes them."""
+    from nld.analysis.continuation import Family
+    from nld.systems import SceneSystem
+    S = SceneSystem("slider_crank_two")
+    keys = "joints.A.clearance,joints.B.clearance"
+    S2 = S.with_parameter(keys, 4e-4)
+    assert S2.kernel.key == S.kernel.key
+    assert S2.parameter("joints.A.clearance") == S2.parameter("joints.B.clearance") == 4e-4
+    assert S2.parameter(keys) == 4e-4
+    fam = Family(S2, keys)
+    assert fam.value0 == 4e-4 and fam.at(5e-4).parameter("joints.B.clearance") == 5e-4
+    with pytest.raises(InputError, match="must be >= 0"):
+        fam.check(-1.0)
+    with pytest.raises(InputError, match="no such scene key"):
+        S.with_parameter("joints.A.clearance,joints.Q.clearance", 4e-4)
+    S3 = S.with_parameter("joints.A.clearance", 3e-4)
+    with pytest.raises(InputError, match="different values"):
+        S3.parameter(keys)

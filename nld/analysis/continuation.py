@@ -103,12 +103,7 @@ class Family:
         if not math.isfinite(value):
             raise InputError(f"{what} = {value!r}: must be finite")
         try:
-            from nld.model.scene import NO_VALUE, resolve_scene, scene_value
-            if self.kind == "scene" and scene_value(self.base.scene, self.param) is not NO_VALUE:
-                # the scene's own domain check only (cheap: no system is built for it)
-                resolve_scene(self.base.scene, [f"{self.param}={value!r}"])
-            else:
-                self.at(value)                         # with_parameter: a forcing frequency > 0
+            self.at(value)     # with_parameter: the scene's own checks, a forcing frequency > 0
         except (InputError, SceneError) as e:
             rule = str(e)
             if self.kind != "scene":                   # with_parameter's message names the key
