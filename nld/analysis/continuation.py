@@ -103,7 +103,15 @@ class Family:
         if not math.isfinite(value):
             raise InputError(f"{what} = {value!r}: must be finite")
         try:
-            self.at(value)     # with_parameter: the scene's own checks, a forcing frequency > 0
+            from nld.model.scene import NO_VALUE, resolve_scene, scene_value
+            keys = [k.strip() for k in str(self.param).split(",")]    # several: set together
+            if self.kind == "scene" and all(scene_value(self.base.scene, k) is not NO_VALUE
+                                            for k in keys):
+                # the scene's own domain check only (cheap: no system is built for it; a value
+                # that changes the structure is refused by at())
+                resolve_scene(self.base.scene, [f"{k}={value!r}" for k in keys])
+            else:
+                self.at(value)                         # with_parameter: a forcing frequency > 0
         except (InputError, SceneError) as e:
             rule = str(e)
             if self.kind != "scene":                   # with_parameter's message names the key
