@@ -57,8 +57,8 @@ def test_a_family_is_the_system_at_another_value():
 
 def test_the_controllers_address_parameters_through_the_system():
     """delayed_feedback's parameter input and OGY's parameter come from
-    System.parameter_index; OGY perturbs copies (with_parameter): the system's p is left as it
-    was."""
+    System.parameter_index; OGY perturbs its own copy (with_parameter): the system's p is left
+    as it was; a forcing frequency (it sets the map's period) is refused."""
     from nld.analysis import control as C
     from nld.systems import henon, rossler
     S = rossler()
@@ -70,6 +70,10 @@ def test_the_controllers_address_parameters_through_the_system():
     p0 = H.p.copy()
     r = C.ogy(H, 0, dp_max=0.1, radius=0.1, n_iter=300, x0=[0.1, 0.1], lyapunov_iter=10)
     assert np.array_equal(H.p, p0) and r.settings is not None
+    from nld.systems import duffing
+    with pytest.raises(InputError, match="param = 'omega': the forcing frequency sets the map's "
+                                         "period"):
+        C.ogy(duffing(), "omega", dp_max=0.01, radius=0.1)
 
 
 def test_defaults_and_builtins_live_in_one_place():

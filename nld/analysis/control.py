@@ -956,9 +956,12 @@ def _ackermann(M: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.linalg.solve(C.T, en) @ phi
 
 
-def _step_p(m, pi, value0, x, z, dp):
-    """One step of the map ``m`` with parameter ``pi`` (an index of p) at value0 + dp."""
-    return m.with_parameter(pi, value0 + dp).step(x, z)
+def _step_p(mp, pi, value0, x, z, dp):
+    """One step of ``mp`` (the controller's own copy of the map, ``with_parameter``) with
+    parameter ``pi`` (an index of p, ``parameter_index``) at value0 + dp: set in its p (a new
+    copy per step would cost more than a Hénon step)."""
+    mp.p[pi] = value0 + dp
+    return mp.step(x, z)
 
 
 def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: float,
@@ -973,7 +976,11 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     from nld.analysis.orbits import map_source, periodic_orbit
     from nld.systems.derived import as_map
     m = as_map(system)
-    pi, pname = _param_index(map_source(m), param, "param")
+    src = map_source(m)
+    pi, pname = _param_index(src, param, "param")
+    if src.period_index is not None and src.period_index == pi and src.period is not None:
+        raise InputError(f"param = {param!r}: the forcing frequency sets the map's period; OGY "
+                         f"perturbs a parameter that does not")
     dp_max = _finite("dp_max", dp_max, "must be a positive number (parameter unit)")
     if dp_max <= 0:
         raise InputError(f"dp_max = {dp_max!r}: must be a positive number (parameter unit)")
@@ -990,13 +997,14 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         raise InputError(f"period = {period!r}: no orbit of that period found ({orbit.message})")
     q = orbit.period
     v0 = m.parameter(pi)
+    mp = m.with_parameter(pi, v0)          # the copy whose p the control perturbs
     h = float(fd_step) if fd_step is not None else 1e-6 * max(1.0, abs(v0))
     A, W = [], []
     for i in range(q):
         st = m.step(orbit.points[i], orbit.z[i], jacobian=True)
         A.append(st.M)
-        xp = _step_p(m, pi, v0, orbit.points[i], orbit.z[i], h).x
-        xm = _step_p(m, pi, v0, orbit.points[i], orbit.z[i], -h).x
+        xp = _step_p(mp, pi, v0, orbit.points[i], orbit.z[i], h).x
+        xm = _step_p(mp, pi, v0, orbit.points[i], orbit.z[i], -h).x
         W.append(m.difference(xp, xm) / (2 * h))
     K = np.zeros((q, m.n))
     Wq = []
@@ -1040,7 +1048,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
                 act[k] = True
                 hold = q - 1
         dps[k] = dp
-        st = _step_p(m, pi, v0, x, z, dp) if dp != 0.0 else m.step(x, z)
+        st = _step_p(mp, pi, v0, x, z, dp) if dp != 0.0 else m.step(x, z)
         x, z = st.x, st.z
         X[k + 1] = x
         Zs.append(None if z is None else np.array(z, dtype=float))
