@@ -54,6 +54,7 @@ import sys
 import threading
 
 __all__ = ["deferred", "Deferral", "install", "ignore_in_worker", "in_main_thread", "received",
+           "forget_received",
            "SIGNALS", "end_pool", "called_from_compiled", "spawning"]
 
 _NUMBA_DIR = None
@@ -66,6 +67,12 @@ _RECEIVED: list[int] = []
 def received() -> int | None:
     """The last stopping signal (SIGINT or SIGTERM) that arrived in this process, or None."""
     return _RECEIVED[-1] if _RECEIVED else None
+
+
+def forget_received() -> None:
+    """Forget the stopping signals received so far (a front end, before it installs its handlers:
+    a signal from then on is counted)."""
+    _RECEIVED.clear()
 
 
 def _note(signum) -> None:

@@ -142,6 +142,47 @@ BENETTIN = Renormalisation(interval_revs=1.0, d0=1e-4, checks_per_period=32, max
 """The two-trajectory estimator (``lyapunov_benettin``, ``nld lyapunov --estimator benettin``)."""
 
 
+# ------------------------------------------------------------ the analyses' own defaults (dicts)
+# The defaults of one analysis that the command line does not share: read by that analysis (and
+# re-exported there as its ``DEFAULTS``), written here once (issue 39). docs/lyapunov.md and
+# docs/attractors.md document them.
+
+LYAPUNOV_DEFAULTS = {
+    # "base" = the system's period (a scene: one crank revolution), or 1 time unit for a flow
+    # without period.
+    # Benettin, flows: renorm_interval = base, checks = 32 per interval when the system has a
+    # period (else 1), early renormalisation when the separation exceeds max_growth * d0,
+    # transient = 20 base, total = 500 base
+    "flow": dict(rtol=LYAPUNOV.rtol, d0=BENETTIN.d0, max_growth=BENETTIN.max_growth,
+                 checks_with_period=BENETTIN.checks_per_period,
+                 transient_base=float(BENETTIN_SPANS.transient_revs),
+                 total_base=float(BENETTIN_SPANS.revs), interval_base=BENETTIN.interval_revs),
+    # perturbation vectors, flows: renorm_interval = base / 32 (period) or 0.1 (no period)
+    "spectrum_flow": dict(rtol=LYAPUNOV.rtol, d0=1e-5, transient_base=20.0, total_base=500.0,
+                          interval_period=1.0 / 32.0, interval_no_period=0.1),
+    "map": dict(d0=1e-9, renorm_interval=1, transient=1000, total=100_000),
+    # tangent dynamics, flows: renorm_interval = base / 8 (period) or 0.1 (no period),
+    # transient 20 base (state only), align 2 base (vectors, discarded), total 200 base
+    "tangent": dict(rtol=LYAPUNOV.rtol, transient_base=float(TANGENT_SPANS.transient_revs),
+                    align_base=TANGENT.align_revs, total_base=float(TANGENT_SPANS.revs),
+                    interval_period=TANGENT.interval_revs,
+                    interval_no_period=TANGENT.interval_no_period),
+    "n_blocks": TANGENT.n_blocks,
+}
+"""``nld.analysis.lyapunov`` (``lyapunov_benettin``, ``lyapunov_spectrum``, ``lyapunov_tangent``
+called without spans): the settings besides the shared ones above (docs/lyapunov.md)."""
+
+CENSUS_DEFAULTS = dict(starts=32, transient=50, record=100, max_period=16, period_tol=1e-4,
+                       match_factor=3.0, lyapunov_members=2, rate_spread=0.5, escape=1e6, seed=0,
+                       map_transient=1000, map_record=200)
+"""``nld.analysis.attractors.census`` / ``nld attractors`` (docs/attractors.md; a scene's period is
+one crank revolution): starts, transient and record in periods (a map: map_transient,
+map_record iterations), max_period, the scaled period tolerance, the basin-matching factor, the
+members whose lambda1 is computed, the rates' spread of a scene's sampler, the escape radius
+(scaled), the sampler's seed."""
+
+__all__ += ["LYAPUNOV_DEFAULTS", "CENSUS_DEFAULTS"]
+
 def defaults_table() -> str:
     """The defaults above as Markdown (docs/analysis.md, "Default settings"): per class a table of
     its instances (what uses them, the value of every field; "-" where a field does not apply),

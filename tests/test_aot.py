@@ -130,12 +130,12 @@ def test_a_stale_stamp_selects_the_jit(monkeypatch, tmp_path):
     stale = tmp_path / "_aot.json"
     stale.write_text(json.dumps(dict(aot.stamp(), sources="0" * 64)))
     monkeypatch.setattr(aot, "STAMP", stale)
-    monkeypatch.setattr(aot, "_STATE", {})
+    monkeypatch.setattr(aot, "STATE", {})
     monkeypatch.delenv("NLD_AOT", raising=False)
     assert aot.why_not() == "stale: built for other sources"
     assert aot.compiled(dopri5_core) is dopri5_core
     monkeypatch.setattr(aot, "STAMP", tmp_path / "missing.json")
-    monkeypatch.setattr(aot, "_STATE", {})
+    monkeypatch.setattr(aot, "STATE", {})
     assert aot.why_not().startswith("not built")
     assert aot.compiled(dopri5_core) is dopri5_core
 
@@ -238,7 +238,7 @@ def test_a_built_core_unpickles_its_signatures_once(monkeypatch):
     monkeypatch.setenv("NLD_AOT", "1")
     run = _scene_run("dopri5")
     run()
-    memo = aot._STATE[("loads", "dopri5_core")]
+    memo = aot.STATE[("loads", "dopri5_core")]
     assert len(memo.memo) > 0                    # the module unpickles through it
     calls = []
     real = aot._PICKLE_LOADS

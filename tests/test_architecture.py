@@ -4,7 +4,8 @@ Walks every module of ``nld`` with ``ast`` (imports anywhere in a file, function
 included: a lazy import is still a dependency) and checks that
 
 * the module import graph has no cycle,
-* no module imports a private name (``_x``) from a module of another package, and
+* no module uses a private name (``_x``) of another module (imported by name or read as an
+  attribute of an imported module), and
 * the packages follow the pipeline's layers: a package imports only from its own layer or below.
 """
 from __future__ import annotations
@@ -138,12 +139,60 @@ def test_no_import_cycle(graph):
     assert cycles(g) == []
 
 
-def test_no_private_name_across_packages(graph):
-    known, deps = graph
+def private_uses(known: dict[str, Path]) -> list[str]:
+    """Every use of another nld module's private name (``_x``, not ``__x__``): imported by name
+    (``from nld.analysis.orbits import _Shooting``) or read as an attribute of an imported module
+    (``from nld.analysis import bifurcation as _bif`` then ``_bif._Spec``)."""
+    deps = imports(known)
     bad = [f"{m} imports {name} from {d}" for m, ds in deps.items() for d, name in ds
-           if name and name.startswith("_") and not name.startswith("__")
-           and package_of(m, known) != package_of(d, known)]
-    assert bad == []
+           if name and name.startswith("_") and not name.startswith("__") and d != m]
+    for m, path in known.items():
+        tree = ast.parse(path.read_text(), str(path))
+        aliases = {}                   # local name -> the nld module it is bound to
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.split(".")[0] == "nld" and a.asname:
+                        aliases[a.asname] = a.name
+            elif isinstance(node, ast.ImportFrom):
+                mod = resolve(m, node, path.name == "__init__.py")
+                for a in node.names:
+                    if f"{mod}.{a.name}" in known:
+                        aliases[a.asname or a.name] = f"{mod}.{a.name}"
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                    and node.value.id in aliases and aliases[node.value.id] != m \
+                    and node.attr.startswith("_") and not node.attr.startswith("__"):
+                bad.append(f"{m}:{node.lineno} reads {node.attr} of {aliases[node.value.id]}")
+    return sorted(set(bad))
+
+
+def test_private_use_walker_finds_both_forms(tmp_path):
+    """The private-name check can fail: a name import and a module attribute are both found."""
+    pkg = tmp_path / "nld"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("def _hidden():\n    return 1\n")
+    (pkg / "b.py").write_text("from nld.a import _hidden\n")
+    (pkg / "c.py").write_text("from nld import a as _a\nx = _a._hidden()\n")
+    (pkg / "d.py").write_text("from nld.a import _hidden as h\n")
+    known = {f"nld.{p.stem}": p for p in sorted(pkg.glob("*.py"))}
+    found = private_uses(known)
+    assert any("nld.b imports _hidden from nld.a" in f for f in found)
+    assert any("nld.c:2 reads _hidden of nld.a" in f for f in found)
+    assert any("nld.d imports _hidden from nld.a" in f for f in found)
+    assert len(found) == 3
+
+
+# uses the front ends still make (nld/cli is edited by another hand in issue 39): the public
+# nld.interrupt.forget_received() replaces them; remove these two when nld/cli calls it
+NOT_YET = {"nld.cli.app:50 reads _RECEIVED of nld.interrupt",
+           "nld.cli:46 reads _RECEIVED of nld.interrupt"}
+
+
+def test_no_private_name_across_modules():
+    """No module uses a private name of another module (issue 39): what two modules share is
+    public, so that the architecture test sees it."""
+    assert [u for u in private_uses(modules()) if u not in NOT_YET] == []
 
 
 def test_packages_follow_the_pipeline_layers(graph):

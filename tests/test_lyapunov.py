@@ -12,7 +12,7 @@ from numba import njit
 
 from nld import systems as S
 from nld.errors import InputError, SolveError
-from nld.analysis.lyapunov import (_cross_events, _import_nolds, lyapunov_benettin, lyapunov_nolds,
+from nld.analysis.lyapunov import (cross_events, _import_nolds, lyapunov_benettin, lyapunov_nolds,
                           lyapunov_spectrum)
 
 LN2 = math.log(2.0)
@@ -136,11 +136,11 @@ def test_renormalisation_across_an_event_surface_reports_it():
     s = S.ContinuousSystem(_lin_rhs, [0.0], name="ramp", z0=[0.0], events=_lin_events,
                            on_event=_lin_on_event, n_events=1)
     z = np.zeros(1)
-    _cross_events(s, 0.0, np.array([0.9]), np.array([1.1]), z)
+    cross_events(s, 0.0, np.array([0.9]), np.array([1.1]), z)
     assert z[0] == 1.0
-    _cross_events(s, 0.0, np.array([1.2]), np.array([1.1]), z)   # no crossing: unchanged
+    cross_events(s, 0.0, np.array([1.2]), np.array([1.1]), z)   # no crossing: unchanged
     assert z[0] == 1.0
-    _cross_events(s, 0.0, np.array([1.1]), np.array([0.5]), z)
+    cross_events(s, 0.0, np.array([1.1]), np.array([0.5]), z)
     assert z[0] == -1.0
 
 

@@ -13,7 +13,7 @@ from nld.errors import SolveError
 from nld.systems import DiscreteMap, henon
 
 
-class _FailingJacobian(O._Shooting):
+class _FailingJacobian(O.Shooting):
     """Shooting whose Jacobian evaluations 2 and 3 fail as a stiff tangent integration does."""
 
     def __init__(self, *a):

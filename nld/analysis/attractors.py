@@ -67,6 +67,7 @@ import numpy as np
 
 from nld.analysis.poincare import section_period
 from nld.errors import InputError, SolveError
+from nld.settings import CENSUS_DEFAULTS
 from nld.systems.derived import NumbaMap, PoincareMap
 
 __all__ = ["Attractor", "CensusResult", "census", "census_sweep", "match_attractors",
@@ -75,10 +76,9 @@ __all__ = ["Attractor", "CensusResult", "census", "census_sweep", "match_attract
 
 KINDS = ("periodic", "quasi-periodic", "chaotic", "permanent contact", "escaping")
 
-# documented defaults (docs/attractors.md); a scene's "period" is one crank revolution
-DEFAULTS = dict(starts=32, transient=50, record=100, max_period=16, period_tol=1e-4,
-                match_factor=3.0, lyapunov_members=2, rate_spread=0.5, escape=1e6, seed=0,
-                map_transient=1000, map_record=200)
+# documented defaults (docs/attractors.md): nld.settings.CENSUS_DEFAULTS; a scene's "period" is
+# one crank revolution
+DEFAULTS = CENSUS_DEFAULTS
 # a flow's run is *near-periodic* when its section repeats with period p to this scaled max-norm
 # over the whole recorded span (the scales: clearance, clearance x crank speed ...); the orbit
 # itself is then found by Newton shooting (``nld.analysis.orbits.periodic_orbit``) and the run is
@@ -369,9 +369,9 @@ def _flow_of(system):
 
 def _as_sampler(system, sampler, rate_spread):
     base = _flow_of(system)
-    z0 = np.asarray(getattr(base, "z0", np.zeros(0)), dtype=float)
+    z0 = np.asarray(base.z0, dtype=float)
     if sampler is None:
-        if getattr(base, "kernel", None) is not None:
+        if base.is_scene:
             return scene_sampler(base, rate_spread)
         raise InputError(f"sampler = None: {system.name} is not a scene; give sampler(rng) -> y "
                          f"(or (y, z)) or a box (lo, hi) of starting states")
@@ -763,7 +763,7 @@ _WORKER_CTX: dict = {}
 def _payload(system, ctx, workers, dask=None):
     """What a worker process needs to rebuild the system and the census settings: a scene's
     Scene and integrator (other systems hold numba functions that do not travel: None)."""
-    if getattr(system, "scene", None) is None or (workers == 1 and dask is None):
+    if not system.is_scene or (workers == 1 and dask is None):
         return None
     keys = ("rtol", "transient", "record", "max_period", "period_tol", "match_factor", "escape")
     return dict(scene=system.scene, method=system.method, event_samples=system.event_samples,
@@ -829,7 +829,7 @@ def _context(system, rtol, transient, record, max_period, period_tol, match_fact
         ctx["record_lyap"] = ctx["record"]
         return ctx
     if system.is_map:
-        if getattr(system, "is_derived", False):
+        if system.is_derived:
             raise InputError(f"{system.name}: give the forced flow itself (the census samples its "
                              f"stroboscopic section), or a PoincareMap of an autonomous flow")
         ctx.update(kind="map", map=None, orbit_map=NumbaMap(system), rtol=None, tol_floor=1e-10,
@@ -945,7 +945,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
     if not (0 < period_tol < 1):
         raise InputError(f"period_tol = {period_tol!r}: must be in (0, 1)")
     if section is not None:
-        if getattr(system, "is_map", False) or getattr(system, "period", None) is not None:
+        if system.is_map or system.period is not None:
             raise InputError("section: only for an autonomous flow (a forced flow is sampled "
                              "once per forcing period, a map is its own section)")
         if not isinstance(section, (tuple, list)) or len(section) not in (2, 3):
@@ -982,7 +982,7 @@ def census(system, starts: int = DEFAULTS["starts"], *, sampler=None, seed: int 
             kinds[i] = "escaping"
     attractors = []
     unsettled = []
-    pname = getattr(system, "period_name", "iteration" if system.is_map else "period")
+    pname = system.period_name or ("iteration" if system.is_map else "period")
     by_orbit = {}
     for i in sorted(on_orbit):
         by_orbit.setdefault(runs[i].orbit, []).append(i)

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Iterable
 import os
 import time
 from dataclasses import dataclass, field
@@ -54,13 +55,13 @@ __all__ = ["sweep", "load_sweep", "parse_values", "check_values"]
 
 DIRECTIONS = ("up", "down")
 # settings that must match for resume=True
-_SETTINGS = ("scene_parameters", "param", "values", "transient_revs", "revs", "observables",
+RESUME_SETTINGS = ("scene_parameters", "param", "values", "transient_revs", "revs", "observables",
              "rtol", "continuation", "up_down", "max_steps", "period_tol", "n_max", "lyapunov",
              "lyapunov_revs", "lyapunov_rtol", "lyapunov_estimator")
 
 
 @dataclass
-class _Spec:
+class PointSpec:
     """Everything a worker needs to run a point (picklable)."""
     raw: dict                    # resolved scene (scene_to_dict) with the base overrides applied
     source: str
@@ -83,21 +84,21 @@ class _Spec:
 # one point
 
 
-def _scene_for(spec: _Spec, value):
+def _scene_for(spec: PointSpec, value):
     from nld.model.scene import apply_overrides, scene_from_dict
     raw = copy.deepcopy(spec.raw)
     apply_overrides(raw, {spec.param: value})
     return scene_from_dict(raw, spec.source)
 
 
-def _failed_table(spec: _Spec, observables) -> pd.DataFrame:
+def _failed_table(spec: PointSpec, observables) -> pd.DataFrame:
     d = {"rev": np.array([-1], dtype=np.int64)}
     for o in observables:
         d[o] = np.array([np.nan])
     return pd.DataFrame(d)
 
 
-def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None) -> dict:
+def _run_point(spec: PointSpec, direction: str, index: int, value, y0=None, z0=None) -> dict:
     """Run one point; never raises for a bad value or a failed integration (status 'failed')."""
     from nld.kernel.compile import compile_scene
     from nld.analysis.poincare import default_observables, period_of, section_scales, stroboscopic
@@ -153,7 +154,7 @@ def _run_point(spec: _Spec, direction: str, index: int, value, y0=None, z0=None)
                 message=message, y_final=y_final, z_final=z_final, wall=wall, table=table)
 
 
-def _lyapunov(spec: _Spec, scene, kern, sec):
+def _lyapunov(spec: PointSpec, scene, kern, sec):
     """(exponent 1/s, uncertainty 1/s, note) from the end of the section, or NaNs and a note."""
     try:
         from nld.analysis.lyapunov import largest_exponent
@@ -171,7 +172,7 @@ def _lyapunov(spec: _Spec, scene, kern, sec):
         return math.nan, math.nan, f"lyapunov failed: {type(e).__name__}: {' '.join(str(e).split())}"
 
 
-def warm_up(spec: _Spec, value) -> None:
+def warm_up(spec: PointSpec, value) -> None:
     """Load the kernel of ``value``'s scene (numba disk cache) and run a few steps: the warm-up
     of every worker process of a parallel sweep (nld.sweeps.executors)."""
     if spec.cache_dir and not os.environ.get("NLD_CACHE_DIR"):
@@ -245,22 +246,7 @@ def parse_values(text: str, name: str = "--values") -> list[float]:
     return vals
 
 
-def _current_value(raw: dict, key: str):
-    cur = raw
-    for part in key.split("."):
-        if isinstance(cur, dict) and part in cur:
-            cur = cur[part]
-        elif isinstance(cur, list) and part.isdigit() and int(part) < len(cur):
-            cur = cur[int(part)]
-        else:
-            return _MISSING
-    return cur
-
-
-_MISSING = object()
-
-
-def _plain_value(v):
+def plain_value(v):
     if isinstance(v, np.generic):
         v = v.item()
     if isinstance(v, bool) or not isinstance(v, (int, float, str)):
@@ -305,34 +291,34 @@ def sweep(scene, param: str, values, *, transient_revs: int = BIFURCATION_SPANS.
     """
     from nld.version import __version__
     from nld.output.provenance import git_hash
-    from nld.model.scene import scene_to_dict
-    from nld.analysis.poincare import _check_count, _load
+    from nld.model.scene import NO_VALUE, scene_to_dict, scene_value
+    from nld.analysis.poincare import check_count, load_scene_arg
     from nld.progress import split_progress
     from nld.sweeps.engine import Tracker, run_points
     bar_on, on_point = split_progress(progress, on_point)
-    sc = _load(scene, overrides)
+    sc = load_scene_arg(scene, overrides)
     raw = scene_to_dict(sc)
-    if not isinstance(param, str) or _current_value(raw, param) is _MISSING:
+    if not isinstance(param, str) or scene_value(raw, param) is NO_VALUE:
         raise InputError(f"param = {param!r}: not a value of scene {sc.name!r} (a --set key such as "
                          "driver.speed or joints.B.clearance)")
-    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+    if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
         from nld.errors import InputTypeError
         raise InputTypeError(f"values = {values!r}: must be a list or array of values (parse_values "
                              "reads 'START:STOP:NUM')")
     check_rtol(rtol, "rtol")
-    values = [_plain_value(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
+    values = [plain_value(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
     if not values:
         raise InputError("values: give at least one")
-    transient_revs = _check_count("transient_revs", transient_revs, 0)
-    revs = _check_count("revs", revs, 1)
+    transient_revs = check_count("transient_revs", transient_revs, 0)
+    revs = check_count("revs", revs, 1)
     if isinstance(observables, str):
         observables = [o.strip() for o in observables.split(",") if o.strip()]
-    lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
+    lyapunov_revs = revs if lyapunov_revs is None else check_count("lyapunov_revs", lyapunov_revs, 2)
     from nld.analysis.lyapunov import ESTIMATORS
     if lyapunov_estimator not in ESTIMATORS:
         raise InputError(f"lyapunov_estimator = {lyapunov_estimator!r}: must be one of "
                          f"{', '.join(ESTIMATORS)}")
-    spec = _Spec(raw=raw, source=sc.source, param=param, transient_revs=transient_revs, revs=revs,
+    spec = PointSpec(raw=raw, source=sc.source, param=param, transient_revs=transient_revs, revs=revs,
                  observables=list(observables) if observables is not None else None,
                  rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
                  n_max=int(min(n_max, max(1, revs // 2))), lyapunov=bool(lyapunov),
@@ -353,7 +339,7 @@ def sweep(scene, param: str, values, *, transient_revs: int = BIFURCATION_SPANS.
     done = {}
     if out is not None:
         store = ResultStore(out)
-        store.prepare(prov, _SETTINGS, resume=resume)
+        store.prepare(prov, RESUME_SETTINGS, resume=resume)
         if resume:
             done = store.finished()
     elif resume:
@@ -404,12 +390,12 @@ def check_values(scene, overrides, keys, values, option: str) -> None:
     command line refuses a sweep whose points would fail the scene check; the API records such a
     point as 'failed' and goes on)."""
     from nld.errors import SceneError
-    from nld.analysis.poincare import _load
-    from nld.model.scene import apply_overrides, scene_from_dict, scene_to_dict
-    sc = _load(scene, overrides)
+    from nld.analysis.poincare import load_scene_arg
+    from nld.model.scene import NO_VALUE, apply_overrides, scene_from_dict, scene_to_dict, scene_value
+    sc = load_scene_arg(scene, overrides)
     raw0 = scene_to_dict(sc)
     for key in keys:
-        if _current_value(raw0, key) is _MISSING:
+        if scene_value(raw0, key) is NO_VALUE:
             return              # the sweep itself names the bad key
     for v in values:
         raw = copy.deepcopy(raw0)

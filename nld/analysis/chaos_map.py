@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Iterable
 import os
 import time
 from dataclasses import dataclass
@@ -68,7 +69,7 @@ import numpy as np
 import pandas as pd
 
 from nld.settings import CHAOS_MAP_SPANS, LYAPUNOV, check_rtol
-from nld.analysis import bifurcation as _bif
+from nld.analysis.bifurcation import RESUME_SETTINGS, PointSpec, plain_value, warm_up
 from nld.analysis.verdict import CHECK_FACTOR, NOT_ESTABLISHED, SHORT, verdict as verdict_rule
 from nld.errors import InputError
 from nld.sweeps.store import ResultStore
@@ -80,7 +81,7 @@ SUMMARY_COLUMNS = ["x", "y", "ix", "iy", "exponent", "uncertainty", "per_revolut
                    "uncertainty_per_revolution", "verdict", "K", "K_spread", "period", "status",
                    "message", "per_revolution_check", "uncertainty_per_revolution_check"]
 MIN_ZERO_ONE = 30          # section points the 0-1 test needs (n_cut >= 3)
-# settings checked on resume besides bifurcation's (nld.analysis.bifurcation._SETTINGS), also
+# settings checked on resume besides bifurcation's (nld.analysis.bifurcation.RESUME_SETTINGS), also
 # when the directory holds no finished cell yet
 _EXTRA_SETTINGS = ("kind", "d0", "seed", "observable", "zero_one", "rtol_check", "check_span",
                    "min_section_points", "lyapunov_integrator", "estimator")
@@ -95,7 +96,7 @@ _EXTRA_DEFAULTS = {"lyapunov_integrator": "dopri5", "estimator": "benettin", "ch
 @dataclass
 class _Job:
     """Everything a worker needs for a cell (picklable)."""
-    spec: _bif._Spec          # scene, section and tolerance settings (bifurcation's point spec)
+    spec: PointSpec          # scene, section and tolerance settings (bifurcation's point spec)
     keys_x: list
     keys_y: list
     observable: str | None
@@ -200,7 +201,7 @@ def _run_cell(job: _Job, index: int, ix: int, iy: int, x, y) -> dict:
                                rtol=spec.lyapunov_rtol, d0=job.d0, seed=job.seed)
         lam, unc = float(res.exponent), float(res.uncertainty)
         per_rev, unc_rev = float(res.per_revolution), float(res.uncertainty_per_revolution)
-        permanent = bool(getattr(res, "diagnostics", {}).get("permanent_contact", False))
+        permanent = bool(res.diagnostics.get("permanent_contact", False))
         if permanent:
             mem = res.diagnostics.get("conditional_on_memory", {})
             notes.append("permanent contact: no contact onset over the span, lambda conditional "
@@ -276,13 +277,13 @@ def _sections(frames) -> pd.DataFrame:
 
 
 def _values(v, name):
-    if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
+    if isinstance(v, (str, bytes)) or not isinstance(v, Iterable):
         from nld.errors import InputTypeError
         raise InputTypeError(f"{name} = {v!r}: must be a list or array of numbers")
     v = v.tolist() if isinstance(v, np.ndarray) else list(v)
     if not v:
         raise InputError(f"{name}: give at least one value")
-    return [_bif._plain_value(a) for a in v]
+    return [plain_value(a) for a in v]
 
 
 def chaos_map(scene, param_x, values_x, param_y, values_y, *,
@@ -336,28 +337,28 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     Returns one row per cell (see the module docstring), also for resumed cells.
     """
     from nld.version import __version__
-    from nld.analysis.poincare import _check_count, _load
+    from nld.analysis.poincare import check_count, load_scene_arg
     from nld.output.provenance import git_hash
-    from nld.model.scene import scene_to_dict
+    from nld.model.scene import NO_VALUE, scene_to_dict, scene_value
     from nld.progress import split_progress
     from nld.sweeps.engine import run_points
     bar_on, on_point = split_progress(progress, on_point)
     keys_x, keys_y = _keys(param_x, "param_x"), _keys(param_y, "param_y")
     if set(keys_x) & set(keys_y):
         raise InputError(f"param_x and param_y share {sorted(set(keys_x) & set(keys_y))}")
-    sc = _load(scene, base_overrides)
+    sc = load_scene_arg(scene, base_overrides)
     raw = scene_to_dict(sc)
     for k in keys_x + keys_y:
-        if _bif._current_value(raw, k) is _bif._MISSING:
+        if scene_value(raw, k) is NO_VALUE:
             raise InputError(f"parameter {k!r}: not a value of scene {sc.name!r} (a --set key such "
                              "as joints.B.clearance or joints.B.friction.mu)")
     vx, vy = _values(values_x, "values_x"), _values(values_y, "values_y")
     check_rtol(rtol, "rtol")
     if lyapunov_rtol is not None:
         check_rtol(lyapunov_rtol, "lyapunov_rtol")
-    transient_revs = _check_count("transient_revs", transient_revs, 0)
-    revs = _check_count("revs", revs, 1)
-    lyapunov_revs = revs if lyapunov_revs is None else _check_count("lyapunov_revs", lyapunov_revs, 2)
+    transient_revs = check_count("transient_revs", transient_revs, 0)
+    revs = check_count("revs", revs, 1)
+    lyapunov_revs = revs if lyapunov_revs is None else check_count("lyapunov_revs", lyapunov_revs, 2)
     if lyapunov_revs < 2:
         raise InputError(f"lyapunov_revs = {lyapunov_revs}: need at least 2 revolutions")
     if d0 is not None and not (isinstance(d0, (int, float)) and math.isfinite(d0) and d0 > 0):
@@ -384,7 +385,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
                          "averaging span over the exponent's)")
     from nld.analysis.lyapunov import check_seed
     seed = check_seed(seed)
-    spec = _bif._Spec(raw=raw, source=sc.source, param=keys_x[0], transient_revs=transient_revs,
+    spec = PointSpec(raw=raw, source=sc.source, param=keys_x[0], transient_revs=transient_revs,
                       revs=revs, observables=[observable] if observable else None,
                       rtol=float(rtol), max_steps=int(max_steps), period_tol=float(period_tol),
                       n_max=int(min(16, max(1, revs // 2))), lyapunov=True,
@@ -421,7 +422,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     if out is not None:
         store = ResultStore(out)
         store.check_settings(prov, _EXTRA_SETTINGS, what="run", defaults=_EXTRA_DEFAULTS)
-        store.prepare(prov, _bif._SETTINGS, resume=resume)
+        store.prepare(prov, RESUME_SETTINGS, resume=resume)
         if resume:
             done = store.finished(DIRECTION)
     elif resume:
@@ -431,7 +432,7 @@ def chaos_map(scene, param_x, values_x, param_y, values_y, *,
     # each worker loads the kernel once (the cells share one structure)
     results = run_points(_run_cell, job, todo, done=done, total=len(cells), store=store,
                          workers=workers, dask=dask, batch_size=batch_size,
-                         warm=(_bif.warm_up, (job.spec, todo[0][3])) if todo else None,
+                         warm=(warm_up, (job.spec, todo[0][3])) if todo else None,
                          progress=bar_on, on_point=on_point, desc=f"chaos map {sc.name}",
                          unit="cell")
     results = {index: rec for (_, index), rec in results.items()}

@@ -55,7 +55,7 @@ import pandas as pd
 from nld.errors import InputError, SceneError, SolveError
 from nld.analysis.continuation import (ARCLENGTH_PARAM_UNIT, Bifurcation, Family,
                                        check_values)
-from nld.analysis.orbits import (PeriodicOrbit, _Shooting, _finite, _orbit_monodromy,
+from nld.analysis.orbits import (PeriodicOrbit, Shooting, finite, orbit_monodromy,
                                  periodic_orbit)
 from nld.systems.derived import never_reset
 
@@ -263,7 +263,7 @@ class _Extended:
         """(r, g, A, J, steps, map) at V; raises _Domain, SolveError."""
         l1, l2 = V[-2] * self.sigma[0], V[-1] * self.sigma[1]
         m = self.map_at(l1, l2)
-        sh = _Shooting(m, self.p, self.multiple)
+        sh = Shooting(m, self.p, self.multiple)
         if self.s0 is None:
             self.s0 = np.asarray(sh.s, dtype=float).copy()
         # fixed scales: a scene's scales follow its clearance (slider.s in units of the
@@ -273,9 +273,9 @@ class _Extended:
         X = V[:-2].reshape(self.npts, m.n) * sh.s
         r, J, steps = sh.evaluate(X, Z, True)
         self.integrations += self.p
-        if not (_finite(r) and _finite(J)):
+        if not (finite(r) and finite(J)):
             raise SolveError("the map is not finite at the iterate")
-        M = _orbit_monodromy(steps, self.p)
+        M = orbit_monodromy(steps, self.p)
         if self.keep is None:
             fz = never_reset(m, steps)
             self.keep = np.setdiff1d(np.arange(m.n), fz)

@@ -40,7 +40,6 @@ name of ``system.param_names``. Units: the parameter's SI unit.
 """
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -49,8 +48,8 @@ import numpy as np
 import pandas as pd
 
 from nld.errors import InputError, SceneError, SolveError
-from nld.analysis.orbits import (PeriodicOrbit, _Shooting, _finite, check_period, periodic_orbit,
-                                 section_points)
+from nld.analysis.orbits import (PeriodicOrbit, Shooting, finite, check_period, map_source,
+                                 periodic_orbit, section_points)
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map
 
 __all__ = ["Family", "Bifurcation", "Branch", "BranchEnd", "Cascade", "continue_orbit",
@@ -72,50 +71,26 @@ CRITICALITIES = ("supercritical", "subcritical", "undetermined")
 
 
 class Family:
-    """``system`` with one parameter varied: ``at(value)`` is the system at that value (cached)."""
+    """``system`` with one parameter varied: ``at(value)`` is the system at that value (cached).
+
+    The parameter is addressed by the System interface alone (``system.parameter(param)``,
+    ``system.with_parameter(param, value)``, nld.systems.base): for a scene a scene key
+    (``joints.B.clearance``: the same kernel at every value), else a name of ``param_names`` or an
+    index of p."""
 
     def __init__(self, system, param):
         self.base = system
         self.param = param
         self._cache: dict = {}
-        if getattr(system, "kernel", None) is not None:
-            from nld.model.scene import resolve_scene
-            if not isinstance(param, str):
-                raise InputError(f"param = {param!r}: for a scene give a scene key, e.g. "
-                                 f"joints.B.clearance or driver.speed")
-            self.kind = "scene"
-            self.label = param
-            self.value0 = self._scene_value(system.scene, param)
-            resolve_scene(system.scene, [f"{param}={self.value0!r}"])   # checks the key
-        else:
-            self.kind = "p"
-            names = list(getattr(system, "param_names", []) or [])
-            if isinstance(param, str):
-                if param not in names:
-                    raise InputError(f"param = {param!r}: {system.name} has parameters "
-                                     f"{', '.join(names) if names else '(unnamed: give an index of p)'}")
-                self.index = names.index(param)
-            elif isinstance(param, (int, np.integer)) and not isinstance(param, bool) \
-                    and 0 <= param < system.p.size:
-                self.index = int(param)
-            else:
-                raise InputError(f"param = {param!r}: must be a name in {names} or an index of p "
-                                 f"(0..{system.p.size - 1})")
-            self.value0 = float(system.p[self.index])
-            self.label = names[self.index] if names else f"p[{self.index}]"
-
-    @staticmethod
-    def _scene_value(scene, key: str) -> float:
-        from nld.model.scene import scene_to_dict
-        node = scene_to_dict(scene)
-        for part in key.split("."):
-            if not isinstance(node, dict) or part not in node:
-                raise InputError(f"param = {key!r}: no such scene key")
-            node = node[part]
-        try:
-            return float(node)
-        except (TypeError, ValueError):
-            raise InputError(f"param = {key!r}: is {node!r}, not a number") from None
+        self.kind = "scene" if system.is_scene else "p"
+        if system.is_scene and not isinstance(param, str):
+            raise InputError(f"param = {param!r}: for a scene give a scene key, e.g. "
+                             f"joints.B.clearance or driver.speed")
+        self.value0 = system.parameter(param)          # InputError for a key it does not have
+        names = list(system.param_names)
+        self.label = param if isinstance(param, str) or not names else names[int(param)]
+        if not isinstance(param, str) and not names:
+            self.label = f"p[{int(param)}]"
 
     def check(self, value: float, what: str = "value") -> float:
         """value as a float in the parameter's domain, else InputError naming the parameter, the
@@ -127,70 +102,45 @@ class Family:
             raise InputError(f"{what} = {value!r}: not a number") from None
         if not math.isfinite(value):
             raise InputError(f"{what} = {value!r}: must be finite")
-        if self.kind == "scene":
-            from nld.model.scene import resolve_scene
-            try:
-                resolve_scene(self.base.scene, [f"{self.param}={value!r}"])
-            except (InputError, SceneError) as e:
-                raise InputError(f"{what} {self.param} = {value:g} is outside the parameter's "
-                                 f"domain: {e}") from None
-        else:
-            pi = getattr(self.base, "period_index", None)
-            if pi is not None and pi == self.index and getattr(self.base, "period", None) \
-                    is not None and not value > 0:
-                raise InputError(f"{what} {self.param} = {value:g} is outside the parameter's "
-                                 f"domain: the forcing frequency must be > 0")
+        try:
+            from nld.model.scene import NO_VALUE, resolve_scene, scene_value
+            keys = [k.strip() for k in str(self.param).split(",")]    # several: set together
+            if self.kind == "scene" and all(scene_value(self.base.scene, k) is not NO_VALUE
+                                            for k in keys):
+                # the scene's own domain check only (cheap: no system is built for it; a value
+                # that changes the structure is refused by at())
+                resolve_scene(self.base.scene, [f"{k}={value!r}" for k in keys])
+            else:
+                self.at(value)                         # with_parameter: a forcing frequency > 0
+        except (InputError, SceneError) as e:
+            rule = str(e)
+            if self.kind != "scene":                   # with_parameter's message names the key
+                rule = rule.split(": ", 1)[-1]
+            raise InputError(f"{what} {self.param} = {value:g} is outside the parameter's "
+                             f"domain: {rule}") from None
         return value
 
     def owns(self, orbit: PeriodicOrbit) -> bool:
         """Whether ``orbit`` is an orbit of this family's system (same equations, same states):
         a scene's kernel, a flow's right-hand side or a map's function, and the state names."""
-        m = orbit.map
         b = self.base
-        src = getattr(m, "flow", None) or getattr(m, "system", None)
-        if src is None:
-            return True
-        if getattr(b, "kernel", None) is not None or getattr(src, "kernel", None) is not None:
-            kb, ks = getattr(b, "kernel", None), getattr(src, "kernel", None)
-            return kb is not None and ks is not None and kb.key == ks.key
-        for attr in ("rhs", "f"):
-            fb, fs = getattr(b, attr, None), getattr(src, attr, None)
-            if fb is not None or fs is not None:
-                if fb is not fs:
-                    return False
-        if getattr(b, "builtin_code", None) != getattr(src, "builtin_code", None):
+        if isinstance(b, (NumbaMap, PoincareMap, StroboscopicMap)):
+            b = map_source(b)
+        src = map_source(orbit.map)
+        if b.is_scene or src.is_scene:
+            return b.is_scene and src.is_scene and b.kernel.key == src.kernel.key
+        if b.is_map != src.is_map or (b.f is not src.f if b.is_map else b.rhs is not src.rhs):
             return False
-        names = list(getattr(b, "state_names", []) or [])
+        if b.builtin_code != src.builtin_code:
+            return False
+        names = list(b.state_names)
         return not names or list(orbit.state_names)[:len(names)] == names
 
     def at(self, value: float):
         value = float(value)
         if value in self._cache:
             return self._cache[value]
-        b = self.base
-        if self.kind == "scene":
-            from nld.kernel.compile import compile_scene
-            from nld.model.scene import resolve_scene
-            from nld.systems.core import SceneSystem
-            sc = resolve_scene(b.scene, [f"{self.param}={value!r}"])
-            kern = compile_scene(sc)
-            if kern.key != b.kernel.key:
-                raise InputError(f"{self.param} = {value:g} changes the scene's structure (e.g. a "
-                                 f"clearance of 0 is an ideal joint): continue within one structure")
-            s = SceneSystem(sc, kernel=kern, method=b.method)
-        else:
-            s = copy.copy(b)
-            s.p = b.p.copy()
-            s.p[self.index] = value
-            pi = getattr(b, "period_index", None)
-            if pi is not None and pi == self.index and b.period is not None:
-                if not value > 0:
-                    raise InputError(f"{self.param} = {value!r}: the forcing frequency must be > 0")
-                s.period = 2.0 * math.pi / value
-                s.hmax = s.period / 20.0
-            for attr in ("_tangent_solver",):
-                if hasattr(b, attr):
-                    setattr(s, attr, getattr(b, attr))
+        s = self.base.with_parameter(self.param, value)
         if len(self._cache) > 64:
             self._cache.clear()
         self._cache[value] = s
@@ -388,18 +338,18 @@ def _arclength_corrector(fam, like_map, o_prev: PeriodicOrbit, V_pred, t_vec, la
         except (InputError, SceneError) as e:   # the Newton left the parameter's domain (mu < 0)
             info["why"] = f"the corrector left the parameter's domain ({e})"
             return None
-        sh = _Shooting(m, p, multiple)
+        sh = Shooting(m, p, multiple)
         npts = p if multiple else 1
         X = V[:-1].reshape(npts, m.n) * sh.s
         try:
             r, J, steps = sh.evaluate(X, Z, True)
             dl = PARAM_FD_STEP * lam_scale
             m2 = fam.map_at(lam + dl, like_map)
-            Gl = _g_lambda(sh, _Shooting(m2, p, multiple), X, Z, dl, lam_scale)
+            Gl = _g_lambda(sh, Shooting(m2, p, multiple), X, Z, dl, lam_scale)
         except (SolveError, InputError, SceneError) as e:
             info["why"] = f"the integration failed ({e})"
             return None
-        if not (_finite(r) and _finite(J) and _finite(Gl)):
+        if not (finite(r) and finite(J) and finite(Gl)):
             info["why"] = "the map is not finite at the corrector's iterate"
             return None
         J = J.copy()
@@ -469,13 +419,13 @@ def _tangent(fam, like_map, o: PeriodicOrbit, value, lam_scale, prev_t=None):
     m = fam.map_at(value, like_map)
     p = o.period
     multiple = o.settings.get("shooting") == "multiple"
-    sh = _Shooting(m, p, multiple)
+    sh = Shooting(m, p, multiple)
     npts = p if multiple else 1
     X = o.points[:npts]
     Z = [np.array(z) for z in o.z[:npts]]
     r, J, _ = sh.evaluate(X, Z, True)
     dl = PARAM_FD_STEP * lam_scale
-    Gl = _g_lambda(sh, _Shooting(fam.map_at(value + dl, like_map), p, multiple), X, Z, dl,
+    Gl = _g_lambda(sh, Shooting(fam.map_at(value + dl, like_map), p, multiple), X, Z, dl,
                    lam_scale)
     fz = _frozen(o, m)
     J = J.copy()
@@ -519,7 +469,7 @@ def check_values(values, value0, param, *, contain: bool = True):
 def _check_owner(fam, orbit: PeriodicOrbit, system, param, tol):
     """The orbit must be an orbit of ``system`` (same equations) at the system's value of the
     parameter: InputError saying which, before any continuation step."""
-    sys_name = getattr(system, "name", "the system")
+    sys_name = system.name
     if not fam.owns(orbit) or orbit.points.shape[1] != fam.map_at(fam.value0, orbit.map).n:
         raise InputError(f"orbit: an orbit of {orbit.system_name} ({', '.join(orbit.state_names)}),"
                          f" not of {sys_name}: continue an orbit on the system it belongs to")
@@ -527,7 +477,7 @@ def _check_owner(fam, orbit: PeriodicOrbit, system, param, tol):
     multiple = orbit.settings.get("shooting") == "multiple"
     npts = orbit.period if multiple else 1
     try:
-        r, _, _ = _Shooting(m, orbit.period, multiple).evaluate(
+        r, _, _ = Shooting(m, orbit.period, multiple).evaluate(
             orbit.points[:npts], [np.array(z) for z in orbit.z[:npts]], True)
         res = float(np.max(np.abs(r)))
     except SolveError as e:
@@ -934,7 +884,7 @@ def _jump_target(fam, like, o, value, direction, tol, offset: float = 0.0) -> st
         for _ in range(n):
             st = m.step(x, z)
             x, z = st.x, st.z
-            if not _finite(x):
+            if not finite(x):
                 return f"beyond the fold (at {fam.label} = {x_at:g}) the motion is not bounded"
         X, Z = section_points(m, x, z, 2 * JUMP_MAX_PERIOD + 1)
     except SolveError as e:
@@ -1402,11 +1352,11 @@ def bifurcation_criticality(fam, like, bif: Bifurcation, step: float):
             for _ in range(of.period):
                 st = mm.step(x, z)
                 x, z = st.x, st.z
-            if not _finite(x):
+            if not finite(x):
                 break
             if k >= NS_ITERATIONS // 2:
                 dist.append(float(np.max(np.abs(mm.difference(x, of.points[0]) / s))))
-        if not dist or not _finite(x) or max(dist) > 0.5:
+        if not dist or not finite(x) or max(dist) > 0.5:
             return "subcritical", (f"on the unstable side ({fam.label} = {value:.6g}) the motion "
                                    f"leaves the orbit's neighbourhood: no small invariant circle")
         radii.append(float(np.mean(dist)))
@@ -1536,10 +1486,10 @@ def orbit_observable(system, orbit: PeriodicOrbit, name: str) -> np.ndarray:
     """The value of ``name`` at each of the orbit's section points: a table column of a scene
     (``nld simulate`` columns, SI units, from the kernel's ``observe`` at the section time), else
     a state name of the system."""
-    kern = getattr(system, "kernel", None)
+    kern = system.kernel if system.is_scene else None
     m = orbit.map
     out = np.empty(orbit.period)
-    if kern is not None and name in kern.columns:
+    if system.is_scene and name in kern.columns:
         j = list(kern.columns).index(name)
         row = np.empty(len(kern.columns))
         for i in np.arange(orbit.period):
@@ -1550,7 +1500,7 @@ def orbit_observable(system, orbit: PeriodicOrbit, name: str) -> np.ndarray:
     names = list(orbit.state_names)
     if name not in names:
         raise InputError(f"observable {name!r}: not a state ({', '.join(names)})"
-                         + (f" nor a column ({', '.join(kern.columns)})" if kern is not None else ""))
+                         + (f" nor a column ({', '.join(kern.columns)})" if system.is_scene else ""))
     return orbit.points[:, names.index(name)].copy()
 
 

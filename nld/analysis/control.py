@@ -62,6 +62,7 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError, SolveError
+from nld.systems.rossler import rossler  # noqa: F401  (the reference flow; defined with the built-in systems)
 from nld.integrators import method_status_message
 from nld.integrators.delay import (PARAM, STATE, DelayLaw, History, combine_histories,
                                    constant_history, dde, history_eval)
@@ -70,7 +71,6 @@ __all__ = ["DelayedFeedback", "delayed_feedback", "pyragas", "edfc", "DelayedRun
            "run_delayed", "DelayLyapunov", "delayed_lyapunov", "ControlResult",
            "control_delayed", "effort_decay_rate", "DomainScan", "stability_domain", "OddNumberVerdict",
            "odd_number_limitation", "OGYResult", "ogy", "orbit_states", "distance_to_orbit",
-           "rossler",
            "RTOL", "D0", "SEGMENT_SAMPLES", "CAPTURE_FRACTION"]
 
 RTOL = 1e-9               # relative tolerance of the delay integrations (atol: system.tolerance)
@@ -112,25 +112,10 @@ def _state_index(system, value, field_name: str) -> tuple[int, str]:
 
 
 def _param_index(system, value, field_name: str) -> tuple[int, str]:
-    p = np.asarray(getattr(system, "p", np.zeros(0)))
-    names = list(getattr(system, "param_names", []) or [])
-    layout = getattr(getattr(system, "kernel", None), "layout", None)
-    if isinstance(value, str) and layout is not None and not names:
-        # a scene: its parameter vector's layout (nld.model.parameters), e.g. loads.0.value
-        if value not in layout.index:
-            raise InputError(f"{field_name} = {value!r}: no such entry of the scene's parameter "
-                             f"vector; entries: {', '.join(layout.names)}")
-        return int(layout.index[value]), value
-    if isinstance(value, str):
-        if value not in names:
-            raise InputError(f"{field_name} = {value!r}: no such parameter of "
-                             f"{getattr(system, 'name', 'the system')}; parameters: "
-                             f"{', '.join(names) if names else '(unnamed: give an index of p)'}")
-        return names.index(value), value
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and 0 <= value < p.size:
-        return int(value), names[int(value)] if int(value) < len(names) else f"p[{int(value)}]"
-    raise InputError(f"{field_name} = {value!r}: a parameter name or an index of p "
-                     f"(0..{p.size - 1})")
+    """(index of p, label) of the parameter ``value`` of ``system`` (``System.parameter_index``)."""
+    i = system.parameter_index(value, field_name)
+    names = list(system.param_names)
+    return i, value if isinstance(value, str) else (names[i] if i < len(names) else f"p[{i}]")
 
 
 # ---------------------------------------------------------------- delayed feedback
@@ -338,8 +323,8 @@ def check_delay_size(system, fb: DelayedFeedback, duration: float, samples_per_d
                f"at least {steps:.3g} steps, the step being capped at the delay (limit "
                f"{MAX_STEPS:.3g})")
         raise InputError(f"{field} = {fb.delay!r}: a delay that short makes the {duration:.6g} "
-                         f"{getattr(system, 'time_unit', 's')} run need {why}; the shortest "
-                         f"delay that fits is {shortest:.3g} {getattr(system, 'time_unit', 's')}")
+                         f"{system.time_unit} run need {why}; the shortest "
+                         f"delay that fits is {shortest:.3g} {system.time_unit}")
 
 
 def _check_run(run: DelayedRun, what: str):
@@ -443,7 +428,7 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     where the memory is never reset and its direction is neutral (multiplier 1 exactly:
     docs/orbits.md, "Memory state"); default False: the memory follows the state (Benettin)."""
     if transverse is None:
-        transverse = getattr(system, "period", None) is None
+        transverse = system.period is None
     tau = fb.delay
     interval = float(tau if interval is None else interval)
     n_int = int(round(float(span) / interval))
@@ -458,11 +443,11 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
     steps = 2.0 * (n_int + int(align)) * interval / tau
     if steps > MAX_STEPS:
         raise InputError(f"delay = {tau!r}: a delay that short makes lambda1 over "
-                         f"{(n_int + int(align)) * interval:.6g} {getattr(system, 'time_unit', 's')}"
+                         f"{(n_int + int(align)) * interval:.6g} {system.time_unit}"
                          f" need at least {steps:.3g} steps of its two trajectories, the step "
                          f"being capped at the delay (limit {MAX_STEPS:.3g}); the shortest delay "
                          f"that fits is {steps * tau / MAX_STEPS:.3g} "
-                         f"{getattr(system, 'time_unit', 's')}")
+                         f"{system.time_unit}")
     t = float(system.t0 if t0 is None else t0)
     y = np.array(system.y0 if y0 is None else y0, dtype=float)
     z = np.array(system.z0 if z0 is None else z0, dtype=float)
@@ -508,14 +493,14 @@ def delayed_lyapunov(system, fb: DelayedFeedback, span: float, *, y0=None, z0=No
         hist = r.history
         ho = combine_histories(r.history, o.history, a, t - span_seg, shift=c)
         yo = y + a * (yn_o - y - c * _field_at(system, fb, law, r.history, t, y, z))
-        if getattr(system, "memory", np.zeros(0)).size:
+        if system.memory.size:
             # a contact law's memory (approach velocity at onset) follows the state, and a
             # pull-back across an event surface is reported as the integrator would
             # (nld.analysis.lyapunov: without it every renormalisation injected a force
             # difference and lambda1 of slider_crank_olyaei came out 3-7x too large)
-            from nld.analysis.lyapunov import _cross_events, _rescale_memory
-            _rescale_memory(system, z, zo, 0.0 if hold_memory else a)
-            _cross_events(system, t, yn_o, yo, zo)
+            from nld.analysis.lyapunov import cross_events, rescale_memory
+            rescale_memory(system, z, zo, 0.0 if hold_memory else a)
+            cross_events(system, t, yn_o, yo, zo)
         h_r, h_o = r.h_last, o.h_last
     logs = logs[int(align):]
     lam = float(np.mean(logs) / interval)
@@ -574,12 +559,25 @@ class ControlResult:
         return self.uncertainty_uncontrolled
 
     def to_dict(self) -> dict:
-        keys = ("lambda1_uncontrolled", "lambda1_controlled", "lambda1_uncertainty",
-                "lambda1_controlled_uncertainty", "lambda1_uncontrolled_uncertainty",
-                "effort_rms_initial", "effort_rms_final", "captured_at", "orbit_distance",
-                "periodicity", "onsets_per_period", "uncertainty_uncontrolled",
-                "uncertainty_controlled", "effort_decay_rate", "status", "message", "settings")
-        return {k: getattr(self, k) for k in keys}
+        return {"lambda1_uncontrolled": self.lambda1_uncontrolled,
+                "lambda1_controlled": self.lambda1_controlled,
+                "lambda1_uncertainty": self.lambda1_uncertainty,
+                "lambda1_controlled_uncertainty": self.lambda1_controlled_uncertainty,
+                "lambda1_uncontrolled_uncertainty": self.lambda1_uncontrolled_uncertainty,
+                "effort_rms_initial": self.effort_rms_initial,
+                "effort_rms_final": self.effort_rms_final, "captured_at": self.captured_at,
+                "orbit_distance": self.orbit_distance, "periodicity": self.periodicity,
+                "onsets_per_period": self.onsets_per_period,
+                "uncertainty_uncontrolled": self.uncertainty_uncontrolled,
+                "uncertainty_controlled": self.uncertainty_controlled,
+                "effort_decay_rate": self.effort_decay_rate, "status": self.status,
+                "message": self.message, "settings": self.settings}
+
+
+def _is_orbit(x) -> bool:
+    """Whether x is a PeriodicOrbit (else: an array of states or of multipliers)."""
+    from nld.analysis.orbits import PeriodicOrbit
+    return isinstance(x, PeriodicOrbit)
 
 
 def orbit_states(orbit, n: int = 2000) -> np.ndarray:
@@ -617,7 +615,7 @@ def orbit_period_time(orbit) -> float:
 def _wrap_angles(system, D: np.ndarray) -> np.ndarray:
     """Differences D (..., n) with the system's angle states (``angle_states``: a scene's crank
     and joint angles, whole turns one state) brought into [-pi, pi); others unchanged."""
-    idx = np.asarray(getattr(system, "angle_states", np.zeros(0, dtype=np.int64)), dtype=np.int64)
+    idx = np.asarray(system.angle_states, dtype=np.int64)
     if idx.size:
         D = np.array(D, dtype=float)
         D[..., idx] -= 2.0 * math.pi * np.floor((D[..., idx] + math.pi) / (2.0 * math.pi))
@@ -653,7 +651,7 @@ def distance_to_orbit(system, Y, target) -> float:
     """The largest scaled distance of the states Y (k, n) to a target orbit's curve (a
     PeriodicOrbit, or an (m, n) array of its states), angles modulo 2 pi: the ``orbit_distance``
     of :class:`ControlResult`."""
-    curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
+    curve = orbit_states(target) if _is_orbit(target) else np.asarray(target, dtype=float)
     return _distance_to_curve(system, Y, curve)
 
 
@@ -724,7 +722,7 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         if run.Y.shape[0] > 2 * spd else math.nan
     dist = None
     if target is not None:
-        curve = orbit_states(target) if hasattr(target, "map") else np.asarray(target, dtype=float)
+        curve = orbit_states(target) if _is_orbit(target) else np.asarray(target, dtype=float)
         dist = _distance_to_curve(system, last, curve)
     onsets = None
     if int(system.n_events) > 0:
@@ -735,7 +733,7 @@ def control_delayed(system, fb: DelayedFeedback, *, transient: float = 0.0,
         onsets = float(np.count_nonzero(sel)) / (0.25 * duration / tau)
     # permanent contact on the controlled motion (no onset in the last quarter, a contact law
     # with memory): lambda1 conditional on the memory, whose direction is neutral there
-    hold = bool(getattr(system, "memory", np.zeros(0)).size) and onsets == 0.0
+    hold = bool(system.memory.size) and onsets == 0.0
     lam_c = delayed_lyapunov(system, fb, lspan, y0=run.y, z0=run.z, t0=run.t[-1],
                              history=run.history, t_break0=run.t_break0, rtol=rtol,
                              interval=lyapunov_interval, d0=d0, hold_memory=hold)
@@ -836,7 +834,7 @@ def stability_domain(system, fb: DelayedFeedback, gains, memories=None, *, y0=No
                         # permanent contact over the transient's second half: lambda1
                         # conditional on the contact memory (control_delayed, docs/control.md)
                         late = run.ev_t >= run.t[-1] - 0.5 * transient
-                        hold = bool(getattr(system, "memory", np.zeros(0)).size) and \
+                        hold = bool(system.memory.size) and \
                             int(system.n_events) > 0 and not np.any(late & (run.ev_dir > 0))
                     else:
                         y = None
@@ -873,10 +871,10 @@ def odd_number_limitation(orbit_or_multipliers, *, autonomous: bool | None = Non
     multipliers. ``autonomous``: whether the orbit is of an autonomous flow (default: from the
     orbit's map; multipliers alone: False)."""
     mu = orbit_or_multipliers
-    if hasattr(mu, "multipliers"):
+    if _is_orbit(mu):
         from nld.systems.derived import PoincareMap
         if autonomous is None:
-            autonomous = isinstance(getattr(mu, "map", None), PoincareMap)
+            autonomous = isinstance(mu.map, PoincareMap)
         mu = mu.multipliers
     mu = np.atleast_1d(np.asarray(mu, dtype=complex))
     real = np.abs(mu.imag) <= tol * np.maximum(np.abs(mu), 1.0)
@@ -958,28 +956,12 @@ def _ackermann(M: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.linalg.solve(C.T, en) @ phi
 
 
-class _Param:
-    """Set parameter ``index`` of a map's p in place (and restore)."""
-
-    def __init__(self, m, index):
-        self.p = m.flow.p if getattr(m, "flow", None) is not None else m.p
-        self.index = index
-        self.value0 = float(self.p[index])
-
-    def set(self, dp):
-        self.p[self.index] = self.value0 + dp
-
-    def reset(self):
-        self.p[self.index] = self.value0
-
-
-def _step_p(m, par, x, z, dp):
-    par.set(dp)
-    try:
-        st = m.step(x, z)
-    finally:
-        par.reset()
-    return st
+def _step_p(mp, pi, value0, x, z, dp):
+    """One step of ``mp`` (the controller's own copy of the map, ``with_parameter``) with
+    parameter ``pi`` (an index of p, ``parameter_index``) at value0 + dp: set in its p (a new
+    copy per step would cost more than a Hénon step)."""
+    mp.p[pi] = value0 + dp
+    return mp.step(x, z)
 
 
 def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: float,
@@ -991,12 +973,14 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     (scaled distance: |(x - x*) / scales|) bound the control; n_iter iterations from x0 (default
     the system's initial state, i.e. the chaotic motion). orbit: the target PeriodicOrbit
     (default ``periodic_orbit(system, period)``)."""
-    from nld.analysis.orbits import periodic_orbit
+    from nld.analysis.orbits import map_source, periodic_orbit
     from nld.systems.derived import as_map
     m = as_map(system)
-    base = system if getattr(system, "p", None) is not None else m
-    pi, pname = _param_index(getattr(m, "flow", None) or getattr(m, "system", None) or base,
-                             param, "param")
+    src = map_source(m)
+    pi, pname = _param_index(src, param, "param")
+    if src.period_index is not None and src.period_index == pi and src.period is not None:
+        raise InputError(f"param = {param!r}: the forcing frequency sets the map's period; OGY "
+                         f"perturbs a parameter that does not")
     dp_max = _finite("dp_max", dp_max, "must be a positive number (parameter unit)")
     if dp_max <= 0:
         raise InputError(f"dp_max = {dp_max!r}: must be a positive number (parameter unit)")
@@ -1012,14 +996,15 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
     if not orbit.converged:
         raise InputError(f"period = {period!r}: no orbit of that period found ({orbit.message})")
     q = orbit.period
-    par = _Param(m, pi)
-    h = float(fd_step) if fd_step is not None else 1e-6 * max(1.0, abs(par.value0))
+    v0 = m.parameter(pi)
+    mp = m.with_parameter(pi, v0)          # the copy whose p the control perturbs
+    h = float(fd_step) if fd_step is not None else 1e-6 * max(1.0, abs(v0))
     A, W = [], []
     for i in range(q):
         st = m.step(orbit.points[i], orbit.z[i], jacobian=True)
         A.append(st.M)
-        xp = _step_p(m, par, orbit.points[i], orbit.z[i], h).x
-        xm = _step_p(m, par, orbit.points[i], orbit.z[i], -h).x
+        xp = _step_p(mp, pi, v0, orbit.points[i], orbit.z[i], h).x
+        xm = _step_p(mp, pi, v0, orbit.points[i], orbit.z[i], -h).x
         W.append(m.difference(xp, xm) / (2 * h))
     K = np.zeros((q, m.n))
     Wq = []
@@ -1032,7 +1017,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
             w = A[(i + j) % q] @ w
         Wq.append((M, w))
         K[i] = _ackermann(M, w)
-    if getattr(orbit, "stable", None) is True:
+    if orbit.stable is True:
         # stable without control (a neutral contact-memory multiplier of a continuum excepted,
         # nld.analysis.orbits): nothing to place, whatever rounding says of |mu| = 1
         K[:] = 0.0
@@ -1063,7 +1048,7 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
                 act[k] = True
                 hold = q - 1
         dps[k] = dp
-        st = _step_p(m, par, x, z, dp) if dp != 0.0 else m.step(x, z)
+        st = _step_p(mp, pi, v0, x, z, dp) if dp != 0.0 else m.step(x, z)
         x, z = st.x, st.z
         X[k + 1] = x
         Zs.append(None if z is None else np.array(z, dtype=float))
@@ -1102,14 +1087,14 @@ def ogy(system, param, *, period: int = 1, orbit=None, dp_max: float, radius: fl
         lam_c = acc / win
     ok = captured is not None and dist_final < radius
     status = "controlled" if ok else "not controlled"
-    name = f"{getattr(system, 'name', m.name)}: OGY on {pname}, period {q}: "
+    name = f"{system.name}: OGY on {pname}, period {q}: "
     applied = bool(np.any(dps != 0.0))
     if not np.any(K):
         # a stable target: the pole placement moves nothing, no perturbation is ever applied;
         # whatever the motion does is the free system's (issue 37): no controlled run to report
         status = "nothing to control"
         amu = np.sort(np.abs(np.asarray(orbit.multipliers)))[::-1]
-        cont = bool(getattr(orbit, "continuum", False)) and amu.size > 1
+        cont = bool(orbit.continuum) and amu.size > 1
         if cont:      # the neutral contact-memory multiplier (1) left out, as orbits does
             amu = np.delete(amu, int(np.argmin(np.abs(amu - 1.0))))
         mu_max = float(amu[0]) if amu.size else 0.0
@@ -1149,23 +1134,3 @@ def _jacobian_lambda(m, x, z, n: int) -> float:
         v /= nv
         x, z = st.x, st.z
     return acc / n
-
-
-# ---------------------------------------------------------------- the reference flow
-def rossler(a: float = 0.2, b: float = 0.2, c: float = 5.7, y0=(1.0, 1.0, 1.0)):
-    """The Rössler system x' = -y - z, y' = x + a y, z' = b + z (x - c) (Rössler 1976), at
-    Pyragas' (1992) a = b = 0.2, c = 5.7 chaotic (lambda1 ~ 0.07 per time unit) with a period-1
-    unstable orbit of period ~ 5.88 (docs/control.md: found by periodic_orbit)."""
-    from nld.systems.core import ContinuousSystem
-    s = ContinuousSystem(rossler_rhs, y0, [a, b, c], f"rossler(a={a:g}, b={b:g}, c={c:g})",
-                         ["x", "y", "z"])
-    s.param_names = ["a", "b", "c"]
-    return s
-
-
-@njit(cache=True)
-def rossler_rhs(t, y, p, z, dy):
-    """Rössler (1976); p = [a, b, c]."""
-    dy[0] = -y[1] - y[2]
-    dy[1] = y[0] + p[0] * y[1]
-    dy[2] = p[1] + y[2] * (y[0] - p[2])

@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit
 
 from nld.errors import InputError
-from nld.settings import BENETTIN, BENETTIN_SPANS, LYAPUNOV, TANGENT, TANGENT_SPANS, check_rtol
+from nld.settings import LYAPUNOV_DEFAULTS, TANGENT, check_rtol
 from nld.systems.core import (advance, builtin_map, builtin_map_jac, period_shift, restart_labels,
                               wrap_angles)
 
@@ -50,29 +50,9 @@ __all__ = ["LyapunovResult", "SpectrumResult", "lyapunov_tangent", "lyapunov_ben
            "lyapunov_spectrum", "blocking_se", "interval_quantile", "uncertainty_from_rates",
            "lyapunov_nolds", "DEFAULTS"]
 
-# documented defaults (docs/lyapunov.md); "base" = the system's period (a scene: one crank
-# revolution), or 1 time unit for a flow without period. The settings shared with the command line
-# are nld.settings' (LYAPUNOV, TANGENT_SPANS, BENETTIN_SPANS, TANGENT, BENETTIN); the rest are here.
-DEFAULTS = {
-    # Benettin, flows: renorm_interval = base, checks = 32 per interval when the system has a
-    # period (else 1), early renormalisation when the separation exceeds max_growth * d0,
-    # transient = 20 base, total = 500 base
-    "flow": dict(rtol=LYAPUNOV.rtol, d0=BENETTIN.d0, max_growth=BENETTIN.max_growth,
-                 checks_with_period=BENETTIN.checks_per_period,
-                 transient_base=float(BENETTIN_SPANS.transient_revs),
-                 total_base=float(BENETTIN_SPANS.revs), interval_base=BENETTIN.interval_revs),
-    # perturbation vectors, flows: renorm_interval = base / 32 (period) or 0.1 (no period)
-    "spectrum_flow": dict(rtol=LYAPUNOV.rtol, d0=1e-5, transient_base=20.0, total_base=500.0,
-                          interval_period=1.0 / 32.0, interval_no_period=0.1),
-    "map": dict(d0=1e-9, renorm_interval=1, transient=1000, total=100_000),
-    # tangent dynamics, flows: renorm_interval = base / 8 (period) or 0.1 (no period),
-    # transient 20 base (state only), align 2 base (vectors, discarded), total 200 base
-    "tangent": dict(rtol=LYAPUNOV.rtol, transient_base=float(TANGENT_SPANS.transient_revs),
-                    align_base=TANGENT.align_revs, total_base=float(TANGENT_SPANS.revs),
-                    interval_period=TANGENT.interval_revs,
-                    interval_no_period=TANGENT.interval_no_period),
-    "n_blocks": TANGENT.n_blocks,
-}
+# documented defaults (docs/lyapunov.md): nld.settings.LYAPUNOV_DEFAULTS, with the settings shared
+# with the command line (LYAPUNOV, TANGENT_SPANS, BENETTIN_SPANS, TANGENT, BENETTIN)
+DEFAULTS = LYAPUNOV_DEFAULTS
 
 
 # ---------------------------------------------------------------- results
@@ -284,7 +264,7 @@ def _spectrum_result(system, rates, weights, n_blocks, method, settings) -> "Spe
         total_uncertainty=_uncertainty(tse, tsp, rates.shape[0]),
         units=_units(system), local_rates=rates, method=method, system=system.name,
         period=period, settings=settings,
-        period_name=getattr(system, "period_name", "revolution"))
+        period_name=system.period_name or "revolution")
 
 
 def _units(system) -> str:
@@ -476,14 +456,14 @@ def _flow_settings(system, transient, total, renorm_interval, d0, rtol, spectrum
     return float(transient), n_int, float(renorm_interval), float(d0), float(rtol)
 
 
-def _rescale_memory(system, z, zp, factor):
+def rescale_memory(system, z, zp, factor):
     """Renormalisation of the perturbed copy's memory states (``system.memory``: a contact
     law's approach velocity recorded at onset) together with its continuous state: where both
     trajectories are in the same contact (both memories set), the copy's memory is put back on
     the line to the reference's by the same factor as the state, zp = z + factor (zp - z), i.e.
     to what the memory of the rescaled copy is to first order. Where only one of them is in
     contact the copy's memory is its own (its onset or separation is handled by
-    ``_cross_events``). Without this the copy keeps, for the rest of a contact, the memory of a
+    ``cross_events``). Without this the copy keeps, for the rest of a contact, the memory of a
     trajectory it is no longer near, and every renormalisation injects a spurious force
     difference (docs/lyapunov.md, "The discrete state")."""
     for m in system.memory:
@@ -491,7 +471,7 @@ def _rescale_memory(system, z, zp, factor):
             zp[m] = z[m] + factor * (zp[m] - z[m])
 
 
-def _cross_events(system, t, y_old, y_new, z):
+def cross_events(system, t, y_old, y_new, z):
     """Renormalisation moves a perturbed state from y_old to y_new. Where that jump crosses an
     event surface (g_k changes sign) the crossing is reported to ``on_event`` as the integrator
     would, so the discrete state stays consistent: a scene records the approach velocity of a
@@ -535,7 +515,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
 
     The local rate of interval i is (sum of ln(d/d0) over its renormalisations) / T; the exponent
     is their mean. A renormalisation that moves the perturbed state across an event surface
-    (a contact onset) reports the crossing to the system's ``on_event`` (see _cross_events).
+    (a contact onset) reports the crossing to the system's ``on_event`` (see cross_events).
     """
     rng = np.random.default_rng(check_seed(seed))
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
@@ -583,7 +563,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
         n_renorm = 0
         base = system.period if system.period is not None else 1.0
         bar = _progress_bar(n_int * T / base, f"lyapunov (benettin) {system.name}",
-                            "rev" if getattr(system, "period_name", "") == "revolution" else
+                            "rev" if system.period_name == "revolution" else
                             "periods", progress)
         for i in range(n_int):
             bar.update(T / base)
@@ -602,8 +582,8 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
                 if c == checks - 1 or d > max_growth * d0:
                     acc += math.log(d / d0)
                     yp_new = y + (d0 / d) * dy
-                    _rescale_memory(system, z, zp, d0 / d)
-                    _cross_events(system, tb, yp, yp_new, zp)
+                    rescale_memory(system, z, zp, d0 / d)
+                    cross_events(system, tb, yp, yp_new, zp)
                     yp = yp_new
                     n_renorm += 1
             rates[i] = acc / T
@@ -622,7 +602,7 @@ def lyapunov_benettin(system, *, transient=None, total=None, renorm_interval=Non
         history_spread=spread,
         units=_units(system), local_rates=rates, method="benettin", system=system.name,
         period=period, settings=settings,
-        period_name=getattr(system, "period_name", "revolution"))
+        period_name=system.period_name or "revolution")
 
 
 # ---------------------------------------------------------------- spectrum
@@ -656,7 +636,7 @@ def _derived_map_spectrum(m, k, Q0, transient, total, n_blocks, seed) -> "Spectr
         x, z = st.x, st.z
     settings = dict(transient=n_tr, total=n_int, renorm_interval=1, seed=seed, n_blocks=n_blocks,
                     jacobian="monodromy (tangent integration with saltation)",
-                    rtol=getattr(m, "rtol", None))
+                    rtol=m.rtol)
     return _spectrum_result(m, rates, np.ones(n_int), n_blocks, "tangent QR of the derived map",
                             settings)
 
@@ -687,7 +667,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
     n_blocks = DEFAULTS["n_blocks"] if n_blocks is None else int(n_blocks)
     Q0 = np.linalg.qr(rng.standard_normal((n, k)))[0]
     Q0 = np.ascontiguousarray(Q0)
-    if getattr(system, "is_derived", False):
+    if system.is_derived:
         return _derived_map_spectrum(system, k, Q0, transient, total, n_blocks, seed)
     if system.is_map:
         n_tr, n_int, every = _map_settings(system, transient, total, renorm_interval)
@@ -747,7 +727,7 @@ def lyapunov_spectrum(system, k: int | None = None, *, transient=None, total=Non
                     for a, m in enumerate(mem):
                         if both[a, j]:
                             zp[j][m] = z[m] + Zn[a, j]
-                _cross_events(system, t1, yp[j], yj, zp[j])
+                cross_events(system, t1, yp[j], yj, zp[j])
                 yp[j] = yj
         settings = dict(transient=transient, total=n_int * T, renorm_interval=T, d0=d0,
                         rtol=rtol, seed=seed, n_blocks=n_blocks, norm="scaled",
@@ -887,7 +867,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
         run = run_tangent(system, y, z, W, Wz, t - sh, (t - sh) + T * np.arange(1, n_al + 1),
                           rtol, tangent_err=tangent_err, h0=h)
         y, z, W, Wz, h, t = run.y, run.z, run.W, run.Wz, run.h_next, run.t + sh
-    n_ev = int(getattr(system, "n_events", 0))
+    n_ev = int(system.n_events)
     diag = crossing_diag(n_ev)          # + per event: smallest onset speed, onset count
     logs: list[np.ndarray] = []
     n_target = n_int
@@ -899,7 +879,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
     chunk = max(1, int(round((base if system.period is not None else 1.0) / T)))
     chunk = min(max(chunk, n_int // 200), 100_000)
     bar = _progress_bar(n_max * T / base, f"lyapunov {system.name}",
-                        "rev" if getattr(system, "period_name", "") == "revolution" else
+                        "rev" if system.period_name == "revolution" else
                         ("periods" if system.period is not None else system.time_unit), progress)
     done = 0
     reached = None
@@ -969,7 +949,7 @@ def lyapunov_tangent(system, k: int = 1, *, transient=None, total=None, renorm_i
                     max_total=None if target_uncertainty is None else float(max_total),
                     target_reached=reached)
     period = system.period
-    pname = getattr(system, "period_name", "revolution")
+    pname = system.period_name or "revolution"
     if k == 1:
         est, hist, se, sp = _stats(rates[:, 0], weights, n_blocks)
         res = LyapunovResult(
@@ -1042,6 +1022,7 @@ def _import_nolds():
             try:
                 return orig(anchor)
             except TypeError:
+                # a module or a package object: importlib's anchor, not an nld system (a third party's shim)
                 name = anchor if isinstance(anchor, str) else getattr(anchor, "__name__", "")
                 return orig(name.rpartition(".")[0])
 

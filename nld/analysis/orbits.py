@@ -53,7 +53,7 @@ from numba import njit
 from nld.errors import InputError, SolveError
 from nld.systems.derived import NumbaMap, PoincareMap, StroboscopicMap, as_map, never_reset
 
-__all__ = ["PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_period",
+__all__ = ["map_source", "PeriodicOrbit", "periodic_orbit", "find_orbits", "floquet", "check_period",
            "section_points", "prime_period"]
 
 DEFAULT_MAX_ITER = 30
@@ -103,6 +103,12 @@ def _whole(value, field: str, least: int) -> int:
         raise InputError(f"{field} = {value!r}: must be a whole number >= {least}")
     return int(value)
 
+
+
+def map_source(m):
+    """The system under the map ``m`` of an orbit analysis (``nld.systems.derived.as_map``): the
+    flow of a derived map, the DiscreteMap of a wrapped one; whose parameters the map has."""
+    return m.system if isinstance(m, NumbaMap) else m.flow
 
 @dataclass
 class PeriodicOrbit:
@@ -231,9 +237,9 @@ class PeriodicOrbit:
         if isinstance(n_per_period, bool) or not isinstance(n_per_period, (int, np.integer)) \
                 or n_per_period < 2:
             raise InputError(f"n_per_period = {n_per_period!r}: must be an integer >= 2")
-        kern = getattr(getattr(m, "flow", None), "kernel", None)
-        if kern is None or not isinstance(m, StroboscopicMap):
+        if not isinstance(m, StroboscopicMap) or not m.flow.is_scene:
             raise InputError("observe(): only for an orbit of a scene's stroboscopic map")
+        kern = m.flow.kernel
         cols = [columns] if isinstance(columns, str) else list(columns)
         bad = [c for c in cols if c not in kern.columns]
         if bad:
@@ -278,7 +284,7 @@ class PeriodicOrbit:
 # evaluation of the shooting residual
 
 
-class _Shooting:
+class Shooting:
     """The residual and Jacobian of (multiple) shooting on a map, in scaled variables."""
 
     def __init__(self, m, p: int, multiple: bool):
@@ -345,7 +351,7 @@ class _Shooting:
         return np.array(out)
 
 
-def _finite(a) -> bool:
+def finite(a) -> bool:
     return bool(np.all(np.isfinite(a)))
 
 
@@ -358,7 +364,7 @@ def _solve_step(J, r, lam: float = 0.0):
     return np.linalg.lstsq(J, -r, rcond=1e-12)[0]
 
 
-def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
+def _newton(sh: Shooting, X, Z, tol: float, max_iter: int, progress=None):
     """Damped Newton / Levenberg-Marquardt on the shooting residual. Returns (X, Z, r, J,
     steps, iterations, converged, message)."""
     p, N, s = sh.p, sh.N, sh.s
@@ -370,7 +376,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
         return (np.asarray(Xs)[: (p if sh.multiple else 1)] / s).ravel()
 
     r, J, steps = sh.evaluate(X, Z, True)
-    if not _finite(r) or not _finite(J):
+    if not finite(r) or not finite(J):
         return X, Z, r, J, steps, 0, False, "the map is not finite at the guess"
     res = float(np.max(np.abs(r)))
     best = (res, X, Z, r, J, steps)
@@ -399,7 +405,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
                     rt, Jt, st = sh.evaluate(Xt, Zt, full)
                 except SolveError:
                     rt = None
-                if rt is not None and _finite(rt):
+                if rt is not None and finite(rt):
                     rest = float(np.max(np.abs(rt)))
                     if rest < (1.0 - 1e-4 * alpha) * res or rest <= tol:
                         if not full:
@@ -410,7 +416,7 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
                                 rest = float(np.max(np.abs(rt)))
                             except SolveError:
                                 Jt = None
-                        if Jt is not None and _finite(Jt) and _finite(rt):
+                        if Jt is not None and finite(Jt) and finite(rt):
                             accepted = True
                             break
                 alpha *= 0.25
@@ -447,8 +453,8 @@ def _newton(sh: _Shooting, X, Z, tol: float, max_iter: int, progress=None):
             rt, Jt, st = sh.evaluate(Xt, [np.array(z) for z in Z], True)
         except (SolveError, np.linalg.LinAlgError):
             break
-        rest = float(np.max(np.abs(rt))) if _finite(rt) else math.inf
-        if not (rest <= 0.25 * res) or not _finite(Jt):
+        rest = float(np.max(np.abs(rt))) if finite(rt) else math.inf
+        if not (rest <= 0.25 * res) or not finite(Jt):
             break
         it += 1
         X = Xt
@@ -481,7 +487,7 @@ def _match(a, b) -> np.ndarray:
     return err
 
 
-def _orbit_monodromy(steps, p):
+def orbit_monodromy(steps, p):
     M = np.eye(steps[0].M.shape[0])
     for st in steps[:p]:
         M = st.M @ M
@@ -537,7 +543,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise InputError(f"max_iter = {max_iter!r}: must be an integer >= 1")
     m = as_map(system, rtol)
-    if rtol is not None and getattr(m, "rtol", rtol) != rtol and not isinstance(m, NumbaMap):
+    if rtol is not None and not isinstance(m, NumbaMap) and m.rtol != rtol:
         m = _with_rtol(m, float(rtol))
     check_size(p, m.n)
     multiple = shooting == "multiple" or (shooting == "auto" and p >= 2)
@@ -557,7 +563,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         Z = [z0.copy() for _ in range(len(X))]
     if not multiple:
         X, Z = X[:1], Z[:1]
-    sh = _Shooting(m, p, multiple)
+    sh = Shooting(m, p, multiple)
     Xs, Zs, r, J, steps, it, converged, message = _newton(sh, np.asarray(X), Z, tol,
                                                         int(max_iter), progress)
     points = Xs if multiple else sh.points_after(Xs, steps)
@@ -569,9 +575,9 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         why = _equilibrium(m, points, zs, [st.time for st in steps[:p]], max(res, tol))
         if why:
             converged, message = False, why
-    M = _orbit_monodromy(steps, p)
+    M = orbit_monodromy(steps, p)
     det_check = None
-    onsets = np.sum([st.onsets for st in steps], axis=0) if len(getattr(steps[0], "onsets", [])) \
+    onsets = np.sum([st.onsets for st in steps], axis=0) if len(steps[0].onsets) \
         else np.zeros(0, dtype=np.int64)
     mins = (np.min([st.min_approach for st in steps], axis=0) if steps[0].min_approach.size
             else np.zeros(0))
@@ -593,7 +599,7 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
         for i in range(p):
             steps2.append(m2.step(points[i], zs[i], jacobian=True, divergence=True,
                                    relabel=True))
-        M2 = _orbit_monodromy(steps2, p)
+        M2 = orbit_monodromy(steps2, p)
         err = _match(mu, multipliers(M2))
         if m.memory.size == 0 and isinstance(m, StroboscopicMap):
             ld = float(np.linalg.slogdet(M2)[1])
@@ -603,21 +609,21 @@ def periodic_orbit(system, period: int = 1, guess=None, *, z=None, shooting: str
     n_neutral = 0
     if m.memory.size and onsets.size:
         # a memory entry of a joint without an onset on the orbit is never reset
-        kern = getattr(m.flow, "kernel", None)
+        scene = m.flow.is_scene       # a memory entry: a scene's by its joint, else by its index
         for j, zi in enumerate(m.memory):
-            ci = int(zi) if kern is not None else j
+            ci = int(zi) if scene else j
             if ci < onsets.size and onsets[ci] == 0:
                 n_neutral += 1
     continuum = n_neutral > 0
     stable, unc = multiplier_stability(mu, err, n_neutral, res)
     settings = {"period": p, "shooting": "multiple" if multiple else "single",
-                "rtol": getattr(m, "rtol", None), "tol": tol, "max_iter": int(max_iter),
+                "rtol": m.rtol, "tol": tol, "max_iter": int(max_iter),
                 "transient": int(transient), "map": repr(m)}
     return PeriodicOrbit(p, np.asarray(points), [np.array(q) for q in zs], res, tol, converged, it,
                          message, mu, err, M, stable if converged else None,
                          onsets.astype(np.int64), int(np.sum(onsets)) if onsets.size else 0,
                          float(np.min(mins)) if mins.size else math.inf, continuum, det_check,
-                         list(m.state_names), getattr(system, "name", m.name), settings, m,
+                         list(m.state_names), system.name, settings, m,
                          unc if converged else math.nan,
                          np.array([float(st.time) for st in steps[:p]]) if not
                          isinstance(m, NumbaMap) else np.zeros(0), n_neutral)
@@ -888,14 +894,14 @@ def find_orbits(system, max_period: int = 4, *, n_points: int | None = None,
         for k, (Xs, Zs) in enumerate(starts):
             if progress is not None:
                 progress(p, k, len(starts))
-            if not _finite(Xs) or np.max(np.abs(Xs)) > 1e8 * np.max(m.scales):
+            if not finite(Xs) or np.max(np.abs(Xs)) > 1e8 * np.max(m.scales):
                 continue
             try:
                 orb = periodic_orbit(m, p, np.array(Xs), z=Zs[0], tol=tol, check=is_flow,
                                      max_iter=20 if is_flow else 12)
             except (SolveError, FloatingPointError, np.linalg.LinAlgError, ValueError):
                 continue
-            if not orb.converged or not _finite(orb.points):
+            if not orb.converged or not finite(orb.points):
                 continue
             if prime_period(m, orb.points, max(dedup_tol, 10 * orb.tolerance)) != p:
                 continue

@@ -83,10 +83,12 @@ class Section:
 
 
 def _is_system(obj) -> bool:
-    return hasattr(obj, "is_map") and hasattr(obj, "solve") and hasattr(obj, "y0")
+    """A System (nld.systems.base), not a scene given by object, name or path."""
+    from nld.systems.base import System
+    return isinstance(obj, System)
 
 
-def _load(scene, overrides):
+def load_scene_arg(scene, overrides):
     """Scene from a Scene/name/path plus overrides (as nld.run.simulate does)."""
     from nld.model.scene import resolve_scene
     from nld.run.simulate import check_scene_arg
@@ -115,7 +117,7 @@ def check_scene_observables(scene, observables, overrides=None) -> list[str]:
     """``observables`` (a list or comma-separated text) checked against the table columns of
     ``scene`` (with ``overrides``); InputError naming the first unknown one and the columns."""
     from nld.kernel.compile import compile_scene
-    kern = compile_scene(_load(scene, overrides))
+    kern = compile_scene(load_scene_arg(scene, overrides))
     return _check_observables(observables, ["t"] + list(kern.columns))
 
 
@@ -131,7 +133,7 @@ def _check_observables(observables, available, what="column") -> list[str]:
     return observables
 
 
-def _check_count(name, v, minimum):
+def check_count(name, v, minimum):
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
         raise InputError(f"{name} = {v!r}: must be an integer >= {minimum}")
     return int(v)
@@ -179,8 +181,8 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
     from nld.settings import check_rtol
     from nld.run.simulate import INTERRUPTED, MAX_OUTPUT_BYTES, interrupted_message
     from nld.systems.derived import StroboscopicMap
-    transient_revs = _check_count("transient_revs", transient_revs, 0)
-    revs = _check_count("revs", revs, 1)
+    transient_revs = check_count("transient_revs", transient_revs, 0)
+    revs = check_count("revs", revs, 1)
     sc = kern = None
     if _is_system(scene):
         system = scene
@@ -202,7 +204,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
         from nld.kernel.compile import compile_scene
         from nld.run.simulate import state_arg, initial_state
         from nld.systems.core import SceneSystem
-        sc = _load(scene, overrides)
+        sc = load_scene_arg(scene, overrides)
         if sc.driver is None or sc.driver.mode != "speed":
             raise InputError(f"scene {sc.name!r}: a stroboscopic section needs a speed-driven "
                              "crank (driver.mode = \"speed\"); use hyperplane_section for a "
@@ -241,7 +243,8 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
                          start=True, relabel=False, progress=progress, max_steps=max_steps,
                          desc=f"stroboscopic {sc.name if sc is not None else system.name}")
     except Interrupted as e:
-        if not hasattr(e.partial, "X"):
+        from nld.systems.derived import SectionRun
+        if not isinstance(e.partial, SectionRun):
             raise
         run, interrupted = e.partial, True
     n = run.t.size
@@ -298,7 +301,7 @@ def stroboscopic(scene, *, transient_revs: int = POINCARE_SPANS.transient_revs,
 
 def _method(system) -> str:
     """The integrator a system runs (``system.method``; dopri5 for a system without one)."""
-    return str(getattr(system, "method", None) or "dopri5")
+    return str(system.method or "dopri5")
 
 
 def _status_text(system, status, t_reached, stats) -> str:
@@ -362,7 +365,7 @@ class _Flow:
 def _scene_flow(scene, overrides, kernel):
     from nld.kernel.compile import compile_scene
     from nld.systems.core import SceneSystem
-    sc = _load(scene, overrides)
+    sc = load_scene_arg(scene, overrides)
     kern = kernel if kernel is not None else compile_scene(sc)
     system = SceneSystem(sc, kernel=kern)
     mod, p = kern.module, system.p
@@ -473,7 +476,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     if dt is None:
         if period is None:
             raise InputError("no period known: give dt (s), the output grid step")
-        samples_per_rev = _check_count("samples_per_rev", samples_per_rev, 4)
+        samples_per_rev = check_count("samples_per_rev", samples_per_rev, 4)
         dt = period / samples_per_rev
     n_grid = int(math.ceil((t_end - t_transient) / dt)) + 1
     grid = np.ascontiguousarray(np.linspace(t_transient, t_end, n_grid))
@@ -487,7 +490,7 @@ def hyperplane_section(scene, *, observable: str = "driver.angle", level: float 
     out = integrate_chunked(system.solve, 0.0, y, grid, False, system.p, z.copy(), float(rtol),
                             atol, hmax, int(max_steps), int(system.n_events), 1000,
                             period if period else math.inf, progress=progress, period=period,
-                            desc=f"poincare {getattr(system, 'name', '')}".strip())
+                            desc=f"poincare {system.name}".strip())
     status, t_reached, Y, n_out, st, Z = out[0], out[1], out[2], int(out[3]), out[4], out[9]
     interrupted = bool(out[-1])
     if status == INTERRUPTED:
@@ -601,7 +604,7 @@ def section_scales(scene, columns) -> np.ndarray:
     for i, col in enumerate(columns):
         joint, _, comp = str(col).rpartition(".")
         j = scene.joints.get(joint) if joint else None
-        if j is not None and comp in ("ex", "ey", "e") and getattr(j, "clearance", 0.0) > 0.0:
+        if j is not None and comp in ("ex", "ey", "e") and j.clearance > 0.0:
             out[i] = j.clearance
     return out
 

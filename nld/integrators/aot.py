@@ -54,28 +54,28 @@ def stamp() -> dict:
             "numpy": ".".join(numpy.__version__.split(".")[:2])}
 
 
-_STATE: dict = {}
+STATE: dict = {}      # the build state ("current", "why"; aot_build sets "record" while it builds)
 
 
 def why_not() -> str:
     """Why the built cores are not used ('' when they are)."""
     _current()
-    return _STATE["why"]
+    return STATE["why"]
 
 
 def _current() -> bool:
     """Whether the stamp matches these sources and versions (checked once per process)."""
-    if "current" not in _STATE:
+    if "current" not in STATE:
         try:
             recorded = json.loads(STAMP.read_text())
         except (OSError, ValueError):
-            _STATE["current"], _STATE["why"] = False, "not built (no nld/integrators/_aot.json)"
+            STATE["current"], STATE["why"] = False, "not built (no nld/integrators/_aot.json)"
         else:
             now = stamp()
             diff = [k for k in now if recorded.get(k) != now[k]]
-            _STATE["current"] = not diff
-            _STATE["why"] = f"stale: built for other {', '.join(diff)}" if diff else ""
-    return _STATE["current"]
+            STATE["current"] = not diff
+            STATE["why"] = f"stale: built for other {', '.join(diff)}" if diff else ""
+    return STATE["current"]
 
 
 _PICKLE_LOADS = pickle.loads
@@ -113,25 +113,25 @@ called_from_compiled(_MemoLoads.__call__)
 def built(name: str):
     """The built core ``name`` if present and current, else None (looked up once per process)."""
     key = ("core", name)
-    if key not in _STATE:
+    if key not in STATE:
         fn = None
         if _current():
-            pickle.loads = _STATE[("loads", name)] = _MemoLoads()   # the module keeps it
+            pickle.loads = STATE[("loads", name)] = _MemoLoads()   # the module keeps it
             try:
                 fn = getattr(importlib.import_module(f"{__package__}.{PREFIX}{name}"), name)
             except (ImportError, AttributeError) as e:
-                _STATE["why"] = f"{name}: {e}"
+                STATE["why"] = f"{name}: {e}"
             finally:
                 pickle.loads = _PICKLE_LOADS
-        _STATE[key] = fn
-    return _STATE[key]
+        STATE[key] = fn
+    return STATE[key]
 
 
 def compiled(core):
     """The integrator core to call: the built one when present and current (and ``NLD_AOT`` is
     not ``0``), else ``core``, numba's dispatcher. While ``aot_build.signatures`` records, a
     recorder."""
-    rec = _STATE.get("record")
+    rec = STATE.get("record")
     if rec is not None:
         return rec(core)
     if os.environ.get("NLD_AOT", "1") == "0":

@@ -15,7 +15,7 @@ import os
 import sys
 from pathlib import Path
 
-from .aot import CORES, HERE, PREFIX, STAMP, _STATE, stamp
+from .aot import CORES, HERE, PREFIX, STAMP, STATE, stamp
 
 
 class _Recorded(Exception):
@@ -64,7 +64,7 @@ def signatures(only=CORES) -> dict:
         "dde_core": lambda: dde(rhs, None, None, 0.0, y0, te, False, p, z, 1e-6, atol, 0.0, 0.0, 10, 0, 1,
                     DelayLaw.make(1, 1, [0.5], [0])),
     }
-    _STATE["record"] = recorder
+    STATE["record"] = recorder
     try:
         for name in only:
             try:
@@ -72,7 +72,7 @@ def signatures(only=CORES) -> dict:
             except _Recorded:
                 pass
     finally:
-        del _STATE["record"]
+        del STATE["record"]
     missing = [c for c in only if c not in got]
     if missing:
         raise RuntimeError(f"no call recorded for {missing}")

@@ -25,6 +25,7 @@ from nld.model.scene_model import (CONTROL_METHODS, DRIVER_MODES, FRICTION_LAWS,
                           MODULATIONS, Body, Contact, Controller, Driver, Friction, Joint, Load, Scene)
 
 __all__ = ["builtin_scenes", "scene_path", "load_scene", "resolve_scene", "parse_override", "apply_overrides",
+           "scene_value", "NO_VALUE",
            "scene_from_dict", "scene_to_dict", "format_scene", "validate",
            "Scene", "Body", "Joint", "Contact", "Friction", "Driver", "Load", "Controller"]
 
@@ -248,6 +249,25 @@ def parse_override(text: str) -> tuple[str, object]:
 
 def _is_index(part: str) -> bool:
     return part.isdigit()
+
+
+NO_VALUE = object()     # scene_value's answer for a key the scene does not have
+
+
+def scene_value(scene, key: str, default=NO_VALUE):
+    """The value at the dotted scene key ``key`` (``joints.B.clearance``, ``loads.0.value``: the
+    keys ``apply_overrides`` sets) of a Scene or of its raw table (``scene_to_dict``); ``default``
+    (:data:`NO_VALUE` unless given) where the scene has no such key. The one reader of a scene
+    key: ``SceneSystem.parameter``, the sweeps and the chaos maps address a scene parameter by it."""
+    node = scene if isinstance(scene, dict) else scene_to_dict(scene)
+    for part in str(key).split("."):
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and _is_index(part) and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return default
+    return node
 
 
 def apply_overrides(raw: dict, overrides) -> dict:

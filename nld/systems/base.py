@@ -116,7 +116,7 @@ class System:
     z0: np.ndarray = np.zeros(0)
     t0: float = 0.0
     period: float | None = None
-    period_name: str          # (no default: a DiscreteMap has none; the analyses' defaults apply)
+    period_name: str | None = None    # None: a DiscreteMap's (the analyses' defaults apply)
     period_index: int | None = None
     angle_states: np.ndarray = np.zeros(0, dtype=np.int64)
     memory: np.ndarray = np.zeros(0, dtype=np.int64)
@@ -152,6 +152,12 @@ class System:
             return int(key)
         raise InputError(f"{field} = {key!r}: a parameter name or an index of p "
                          f"(0..{self.p.size - 1})")
+
+    def parameter_index(self, key, field: str = "param") -> int:
+        """The index of p that ``key`` addresses (a name of param_names or an index of p; a scene:
+        also a name of its parameter layout), for an analysis that perturbs p itself (a
+        controller's input); InputError naming ``field``, the key and what is allowed otherwise."""
+        return self._param_index(key, field)
 
     def parameter(self, key) -> float:
         """The value of the parameter ``key`` (a name of param_names or an index of p)."""

@@ -712,19 +712,27 @@ class SceneSystem(ContinuousSystem):
 
     def _scene_value(self, key: str):
         """The value at scene key ``key`` (a dotted path of the scene's dict), else None."""
-        from nld.model.scene import scene_to_dict
-        node = scene_to_dict(self.scene)
-        for part in key.split("."):
-            if isinstance(node, dict) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-                node = node[int(part)]
-            else:
-                return None
-        return node
+        from nld.model.scene import scene_value
+        return scene_value(self.scene, key, None)
+
+    @staticmethod
+    def _linked(key):
+        """The scene keys of a key that names several, comma-separated, set together
+        ("joints.A.clearance,joints.B.clearance"), else None."""
+        if isinstance(key, str) and "," in key:
+            return [k.strip() for k in key.split(",") if k.strip()]
+        return None
 
     def parameter(self, key) -> float:
-        """The value of a scene key (SI), or of an entry of p (layout name or index)."""
+        """The value of a scene key (SI), or of an entry of p (layout name or index); of several
+        keys set together (comma-separated), their common value."""
+        keys = self._linked(key)
+        if keys:
+            vals = [self.parameter(k) for k in keys]
+            if any(v != vals[0] for v in vals):
+                raise InputError(f"param = {key!r}: the keys set together have different values "
+                                 f"({', '.join(f'{v:g}' for v in vals)}): give the scene one value")
+            return vals[0]
         if isinstance(key, str):
             node = self._scene_value(key)
             if node is not None:
@@ -737,12 +745,18 @@ class SceneSystem(ContinuousSystem):
     def with_parameter(self, key, value):
         """The scene at ``key`` = value: a scene key rebuilds the scene (same kernel: no
         recompilation; InputError where the value changes the structure, e.g. a clearance of
-        0) and re-assembles its initial state; a layout name or an index sets that entry of p."""
-        if isinstance(key, str) and self._scene_value(key) is not None:
+        0) and re-assembles its initial state; so do several scene keys set together
+        (comma-separated: "joints.A.clearance,joints.B.clearance"); a layout name or an index
+        sets that entry of p."""
+        keys = self._linked(key) or ([key] if isinstance(key, str) else [])
+        if keys and (len(keys) > 1 or self._scene_value(key) is not None):
             from nld.kernel.compile import compile_scene
             from nld.model.scene import resolve_scene
+            for k in keys:
+                if self._scene_value(k) is None:
+                    raise InputError(f"param = {k!r}: no such scene key of {self.name}")
             value = float(value)
-            sc = resolve_scene(self.scene, [f"{key}={value!r}"])
+            sc = resolve_scene(self.scene, [f"{k}={value!r}" for k in keys])
             kern = compile_scene(sc)
             if kern.key != self.kernel.key:
                 raise InputError(f"{key} = {value:g} changes the scene's structure (e.g. a "
