@@ -489,22 +489,20 @@ class StroboscopicMap(_FlowMap):
         """orbit(land=True): one chunked integration from t0 landing on every section time."""
         from nld.errors import Interrupted
         from nld.integrators import method_status_message
-        from nld.run.simulate import (INTERRUPTED, event_log_size, integrate_chunked,
-                                      interrupted_message)
+        from nld.run.simulate import INTERRUPTED, event_log_size, interrupted_message
         sysm = self.flow
         t0 = self.t0
         k0 = transient if start else transient + 1
         k = np.arange(k0, k0 + n)
         te = np.ascontiguousarray(t0 + k * self.T, dtype=float)
-        z = np.array(zz, dtype=float)
         y = np.ascontiguousarray(y, dtype=float)
         max_log = event_log_size((te[-1] - t0) / float(sysm.period))
-        out = integrate_chunked(sysm.solve, float(t0), y, te, True, sysm.p, z, self.rtol, atol,
-                                float(sysm.hmax), int(max_steps), int(sysm.n_events), max_log,
-                                self.T, progress=progress, period=self.T,
-                                desc=desc or f"section {sysm.name}")
-        status, t_reached, Y, m, st, ev_t, ev_k, ev_dir, n_logged, Z, interrupted = out
-        m = int(m)
+        out = integrate(sysm, t0, y, zz, te, land=True, rtol=self.rtol, atol=atol,
+                        max_steps=max_steps, max_log=max_log, span=self.T, progress=progress,
+                        desc=desc or f"section {sysm.name}")
+        status, t_reached, Y, st, Z, z = out.status, out.t, out.Y, out.stats, out.Z, out.z
+        ev_t, ev_k, ev_dir, n_logged = out.ev_t, out.ev_k, out.ev_dir, out.n_ev
+        m = int(out.n_out)
         # onsets over the recorded steps: after the first recorded point's time (start) or the
         # transient's end
         t_rec = t0 + transient * self.T
@@ -527,7 +525,7 @@ class StroboscopicMap(_FlowMap):
         if n_logged <= max_log:
             run.step_onsets = self._step_onsets(te[:m], ev_t[:n_logged], ev_k[:n_logged],
                                                 ev_dir[:n_logged])
-        if interrupted:
+        if out.interrupted:
             raise Interrupted(msg or "interrupted", partial=run,
                               kept=f"{m} of {n} section points (t = {t0:g} .. {t_reached:.6g} s)")
         return run
