@@ -9,7 +9,7 @@ import numpy as np
 from nld.systems import advance, duffing
 from nld.systems.base import Solution, TangentSolution, integrate, integrate_tangent
 from nld.systems.section import land
-from nld.systems.tangent import run_tangent
+from nld.systems.tangent import run_tangent, tangent_functions
 
 SYSTEMS = Path(__file__).resolve().parent.parent / "nld" / "systems"
 INTEGRATORS = {"solve", "solve_tangent", "integrate_chunked", "dopri5", "dopri5_tangent"}
@@ -78,7 +78,8 @@ def test_tangent_integration_is_read_by_name():
     y, _ = advance(d, d.y0, d.z0, 0.0, T, 1e-10)
     assert np.max(np.abs(run.y - y)) < 1e-7
     W = np.eye(2)
-    out = integrate_tangent(d, 0.0, d.y0.copy(), d.z0.copy(), W, np.zeros((2, 0)),
+    solve = tangent_functions(d)[0]
+    out = integrate_tangent(d, solve, 0.0, d.y0.copy(), d.z0.copy(), W, np.zeros((2, 0)),
                             np.array([T]), 1e-10, tangent_err=True, want_div=False, h0=0.0,
                             max_steps=10**6, diag=np.zeros(run.diag.size), logs=np.zeros((1, 2)),
                             orthonormalise=False)

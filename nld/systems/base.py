@@ -236,19 +236,17 @@ class TangentSolution:
     h_next: float
 
 
-def integrate_tangent(system, t0: float, y, z, W, Wz, marks, rtol: float, *, atol=None,
+def integrate_tangent(system, solve, t0: float, y, z, W, Wz, marks, rtol: float, *, atol=None,
                       tangent_err: bool, want_div: bool, h0: float, max_steps: int, diag, logs,
                       orthonormalise: bool) -> TangentSolution:
     """Integrate the flow ``system`` and the tangent vectors W (k, n) with discrete parts Wz
-    (k, nz) from (t0, y, z) through the times ``marks`` with its tangent integrator
-    (``nld.systems.tangent.tangent_functions``; arguments as ``nld.integrators.tangent``): the
-    one place that builds that integrator's call, beside :func:`integrate` (its signature
-    differs: tangent vectors, marks, the renormalisation logs). atol: default
-    ``system.tolerance(rtol)``; step cap, event count and event samples the system's.
-    z, W, Wz, diag and logs are contiguous float arrays the integrator updates in place (the
-    caller copies what it must keep). Returns a :class:`TangentSolution`."""
-    from nld.systems.tangent import tangent_functions
-    solve, _ = tangent_functions(system)
+    (k, nz) from (t0, y, z) through the times ``marks`` with its tangent integrator ``solve``
+    (``nld.systems.tangent.tangent_functions(system)[0]``; arguments as
+    ``nld.integrators.tangent``): the one place that builds that integrator's call, beside
+    :func:`integrate` (its signature differs: tangent vectors, marks, the renormalisation logs).
+    atol: default ``system.tolerance(rtol)``; step cap, event count and event samples the
+    system's. z, W, Wz, diag and logs are contiguous float arrays the integrator updates in place
+    (the caller copies what it must keep). Returns a :class:`TangentSolution`."""
     atol = system.tolerance(rtol) if atol is None else np.ascontiguousarray(atol, dtype=float)
     out = solve(float(t0), y, z, W, Wz, marks, system.p, float(rtol), atol, system.scales,
                 float(h0), float(system.hmax), int(max_steps), int(system.n_events),

@@ -282,7 +282,8 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
     if diag is None:
         dg[DG_MINRATIO] = np.inf
     atol = system.tolerance(rtol)
-    out = integrate_tangent(system, t0, y, z, W, Wz, marks, rtol, atol=atol,
+    solve, _ = tangent_functions(system)
+    out = integrate_tangent(system, solve, t0, y, z, W, Wz, marks, rtol, atol=atol,
                             tangent_err=tangent_err, want_div=want_div, h0=h0,
                             max_steps=max_steps, diag=dg, logs=logs, orthonormalise=orthonormalise)
     if out.status not in (0, 1):
