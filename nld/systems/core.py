@@ -431,10 +431,6 @@ def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = 
     """
     if system.is_map:
         raise InputError(f"{system.name} is a map: use iterate(), not advance()")
-    y = np.ascontiguousarray(y, dtype=float)
-    if atol is None:
-        atol = system.tolerance(rtol)
-    atol = np.ascontiguousarray(atol, dtype=float)
     out = integrate(system, t0, y, z, np.array([float(t1)]), land=True, rtol=rtol, atol=atol,
                     hmax=hmax, max_steps=max_steps, max_log=max_log)
     if out.status != 0 or out.n_out < 1:
