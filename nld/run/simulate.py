@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import namedtuple
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -467,8 +468,8 @@ def integrate_chunked(solve, t0, y0, t_eval, land, p, z, rtol, atol, hmax, max_s
     s of simulated time, with SIGINT deferred (``nld.interrupt.deferred``). ``event_samples``
     None: the integrator's default (``solve`` is then called with 13 arguments).
 
-    Returns the integrator's tuple ``(status, t_reached, Y, n_out, stats, ev_t, ev_k, ev_dir,
-    n_ev, Z)`` for the whole run, plus ``interrupted`` (bool): on Ctrl-C the loop stops after the
+    Returns a :data:`ChunkedSolution`, the named tuple ``(status, t, Y, n_out, stats, ev_t, ev_k,
+    ev_dir, n_ev, Z)`` of the integrator for the whole run, plus ``interrupted`` (bool): on Ctrl-C the loop stops after the
     chunk in progress and returns what it has, status INTERRUPTED.
 
     Chunk boundaries lie at t0 + k span (deterministic: the same run gives the same numbers
@@ -557,9 +558,15 @@ def integrate_chunked(solve, t0, y0, t_eval, land, p, z, rtol, atol, hmax, max_s
             sig.handled = True
     if stats is None:
         stats = np.zeros(5, dtype=np.int64)
-    return (status, t_reached, Y, n_out, stats, np.array(ev_t, dtype=float),
-            np.array(ev_k, dtype=np.int64), np.array(ev_dir, dtype=np.int64), n_logged, Zo,
-            interrupted)
+    return ChunkedSolution(status, t_reached, Y, n_out, stats, np.array(ev_t, dtype=float),
+                           np.array(ev_k, dtype=np.int64), np.array(ev_dir, dtype=np.int64),
+                           n_logged, Zo, interrupted)
+
+
+# integrate_chunked's result: the integrator's Solution fields for the whole run, then whether
+# Ctrl-C stopped it (a named tuple: read by name, e.g. by nld.systems.base.integrate)
+ChunkedSolution = namedtuple("ChunkedSolution", ["status", "t", "Y", "n_out", "stats", "ev_t",
+                                                 "ev_k", "ev_dir", "n_ev", "Z", "interrupted"])
 
 
 def interrupted_message(t_reached, t0, t_end, n_out, n_eval, scene=None) -> str:

@@ -40,8 +40,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from nld.errors import InputError
+from nld.integrators.core import as_solution
 
-__all__ = ["System", "Solution", "integrate"]
+__all__ = ["System", "Solution", "integrate", "TangentSolution", "integrate_tangent"]
 
 
 @dataclass(slots=True)
@@ -58,6 +59,7 @@ class Solution:
     n_ev:    events logged.
     Z:       (len(t_eval), nz) discrete state in force at each output row.
     z:       the discrete state where the integration stopped (a copy of the start's, updated).
+    interrupted: Ctrl-C stopped a chunked run (``span``) at a chunk's end (status INTERRUPTED).
     """
     status: int
     t: float
@@ -70,6 +72,7 @@ class Solution:
     n_ev: int
     Z: np.ndarray
     z: np.ndarray
+    interrupted: bool = False
 
     @property
     def ok(self) -> bool:
@@ -182,7 +185,8 @@ class System:
 
 def integrate(system, t0: float, y, z, t_eval, *, land: bool, rtol: float, atol=None,
               hmax: float | None = None, max_steps: int, max_log: int = 1,
-              event_samples: int | None = None) -> Solution:
+              event_samples: int | None = None, span: float | None = None, progress=None,
+              desc: str = "integrate") -> Solution:
     """Integrate the flow ``system`` from (t0, y, z) with its integrator (``system.solve``):
     the one place in nld.systems that builds the integrator's call.
 
@@ -191,11 +195,68 @@ def integrate(system, t0: float, y, z, t_eval, *, land: bool, rtol: float, atol=
     system's own: a scene's positions absolute, rates relative). hmax: step cap (s; default the
     system's). max_steps: step budget; max_log: event log length; event_samples: default the
     system's. z is copied, y is not written: the inputs are not modified. Returns a :class:`Solution`.
+
+    span (s): run in chunks of that much simulated time with Ctrl-C honoured at each chunk's end
+    and a progress bar (``progress``, ``desc``; ``nld.run.simulate.integrate_chunked``, which
+    owns that loop): ``Solution.interrupted`` says whether Ctrl-C stopped it. event_samples is
+    then the system's. None: one call.
     """
     atol = system.tolerance(rtol) if atol is None else np.ascontiguousarray(atol, dtype=float)
     zz = np.array(z, dtype=float)
-    out = system.solve(float(t0), np.ascontiguousarray(y, dtype=float),
-                       np.ascontiguousarray(t_eval, dtype=float), bool(land), system.p, zz,
-                       float(rtol), atol, 0.0, float(system.hmax if hmax is None else hmax),
-                       int(max_steps), int(system.n_events), int(max_log), event_samples)
-    return Solution(*out, z=zz)       # a Solution named tuple or a user wrapper's plain 10-tuple
+    y = np.ascontiguousarray(y, dtype=float)
+    t_eval = np.ascontiguousarray(t_eval, dtype=float)
+    hmax = float(system.hmax if hmax is None else hmax)
+    if span is not None:
+        from nld.run.simulate import integrate_chunked
+        out = integrate_chunked(system.solve, float(t0), y, t_eval, bool(land), system.p, zz,
+                                float(rtol), atol, hmax, int(max_steps), int(system.n_events),
+                                int(max_log), float(span), progress=progress, period=system.period,
+                                desc=desc)
+        interrupted = bool(out.interrupted)
+    else:
+        out = as_solution(system.solve(float(t0), y, t_eval, bool(land), system.p, zz,
+                                       float(rtol), atol, 0.0, hmax, int(max_steps),
+                                       int(system.n_events), int(max_log), event_samples))
+        interrupted = False
+    # the integrator's fields read by name, passed in Solution's order (keywords cost 2 us more
+    # per call: a map step or a section's landing integrations make many calls)
+    return Solution(out.status, out.t, out.Y, out.n_out, out.stats, out.ev_t, out.ev_k,
+                    out.ev_dir, out.n_ev, out.Z, zz, interrupted)
+
+
+@dataclass(slots=True)
+class TangentSolution:
+    """One integration of a flow with its tangent vectors (:func:`integrate_tangent`), by name.
+
+    status:  the integrator's status (0 success, 1 stopped by on_event; <0 failures).
+    t:       the time reached (s).
+    y:       the state there (SI).
+    n_done:  the marks passed (rows of ``logs`` filled).
+    stats:   int64 counters as :class:`Solution`'s.
+    h_next:  the step size proposed for a continuation (s).
+    """
+    status: int
+    t: float
+    y: np.ndarray
+    n_done: int
+    stats: np.ndarray
+    h_next: float
+
+
+def integrate_tangent(system, solve, t0: float, y, z, W, Wz, marks, rtol: float, *, atol=None,
+                      tangent_err: bool, want_div: bool, h0: float, max_steps: int, diag, logs,
+                      orthonormalise: bool) -> TangentSolution:
+    """Integrate the flow ``system`` and the tangent vectors W (k, n) with discrete parts Wz
+    (k, nz) from (t0, y, z) through the times ``marks`` with its tangent integrator ``solve``
+    (``nld.systems.tangent.tangent_functions(system)[0]``; arguments as
+    ``nld.integrators.tangent``): the one place that builds that integrator's call, beside
+    :func:`integrate` (its signature differs: tangent vectors, marks, the renormalisation logs).
+    atol: default ``system.tolerance(rtol)``; step cap, event count and event samples the
+    system's. z, W, Wz, diag and logs are contiguous float arrays the integrator updates in place
+    (the caller copies what it must keep). Returns a :class:`TangentSolution`."""
+    atol = system.tolerance(rtol) if atol is None else np.ascontiguousarray(atol, dtype=float)
+    out = solve(float(t0), y, z, W, Wz, marks, system.p, float(rtol), atol, system.scales,
+                float(h0), float(system.hmax), int(max_steps), int(system.n_events),
+                bool(tangent_err), bool(want_div), diag, logs,
+                int(system.event_samples), bool(orthonormalise))
+    return TangentSolution(*out)      # the compiled integrator's 6-tuple, in its declared order

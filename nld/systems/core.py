@@ -10,15 +10,17 @@ needs (equations, parameters, initial state, per-state scales, forcing period), 
   ``on_event(k, direction, t, y, p, z) -> int``) that may change ``z``.
 * :class:`DiscreteMap` -- a map ``x_{n+1} = f(x_n)`` given as a numba-compiled ``f(x, p, out)``,
   optionally with its Jacobian ``jac(x, p, J)``.
-* :func:`SceneSystem` -- a mechanism scene compiled to its kernel (``nld.kernel.compile``): the scene's
+* :class:`SceneSystem` -- a mechanism scene compiled to its kernel (``nld.kernel.compile``): the scene's
   rhs/events/on_event, the assembled initial state, the clearance-based state scales of
   ``nld.run.simulate.state_scales`` and the crank period.
 * built-ins: :func:`lorenz`, :func:`duffing`, :func:`logistic`, :func:`henon`, :func:`linear`.
 
 :func:`advance` integrates a continuous system over one interval with the system's integrator
 (``method``: the adaptive DOPRI5 of ``nld.integrators.dopri5`` by default, or DOP853, or the stiff
-Rodas4 of ``nld.integrators.rosenbrock``; relative tolerance ``rtol``, absolute tolerance
-``rtol * scales`` per state, events located so contact onsets of a scene are handled).
+Rodas4 of ``nld.integrators.rosenbrock``; relative tolerance ``rtol``, the system's absolute
+tolerance ``system.tolerance(rtol)`` (``rtol * scales`` per state; a scene's positions absolute,
+rates relative), events located so contact onsets of a scene are handled), through the one
+integrator call ``nld.systems.base.integrate``.
 :func:`iterate` applies a map.
 
 Compilation: the integrators are compiled once per machine for first-class function arguments
@@ -415,27 +417,25 @@ def failure_message(system, out, t0: float, y, z, rtol: float, atol=None, hmax=N
 
 
 def advance(system: ContinuousSystem, y, z, t0: float, t1: float, rtol: float = LYAPUNOV.rtol, *,
-            atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None):
+            atol=None, max_steps: int = DEFAULT_MAX_STEPS, hmax: float | None = None,
+            max_log: int = 1):
     """Integrate ``system`` from (t0, y, z) to t1 with its integrator (``system.method``,
-    DOPRI5 by default); returns (y(t1), z(t1)).
+    DOPRI5 by default), landing exactly on t1; returns (y(t1), z(t1)), new arrays.
 
     rtol: relative tolerance; atol: absolute tolerance per state (default ``system.tolerance(rtol)``).
     Events (contact onsets of a scene) are located and handled by ``on_event``, which updates
     the discrete state; the inputs are not modified (z is copied). hmax: step cap (default the
-    system's). A failed integration raises :class:`nld.errors.SolveError`.
+    system's); max_log: the event log's length. A failed integration raises
+    :class:`nld.errors.SolveError` (``failure_message``). ``nld.systems.section.land`` is this
+    call (plus t1 <= t0: the start itself).
     """
     if system.is_map:
         raise InputError(f"{system.name} is a map: use iterate(), not advance()")
-    y = np.ascontiguousarray(y, dtype=float)
-    z0 = np.array(z, dtype=float)
-    if atol is None:
-        atol = system.tolerance(rtol)
-    atol = np.ascontiguousarray(atol, dtype=float)
-    out = integrate(system, t0, y, z0, np.array([float(t1)]), land=True, rtol=rtol, atol=atol,
-                    hmax=hmax, max_steps=max_steps)
+    out = integrate(system, t0, y, z, np.array([float(t1)]), land=True, rtol=rtol, atol=atol,
+                    hmax=hmax, max_steps=max_steps, max_log=max_log)
     if out.status != 0 or out.n_out < 1:
-        raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0), y, z0, rtol, atol,
-                                                                hmax))
+        raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0), y, z, rtol,
+                                                                atol, hmax))
     return out.Y[0].copy(), out.z
 
 
@@ -770,7 +770,10 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
                rtol: float = LYAPUNOV.rtol):
     """States sampled every dt after a transient: (t, Y), Y[i] = y(t0 + transient + i dt).
 
-    Flows: DOPRI5 with dense output (t in s). Maps: dt is ignored, Y[i] = x_{transient + i}.
+    Flows: the system's integrator with dense output (t in s), relative tolerance rtol and the
+    system's own absolute tolerance ``system.tolerance(rtol)`` (a scene's positions absolute,
+    rates relative), as every integration of the system. Maps: dt is ignored,
+    Y[i] = x_{transient + i}.
     """
     n_samples = int(n_samples)
     if system.is_map:
@@ -785,13 +788,10 @@ def trajectory(system, n_samples: int, dt: float, *, transient: float = 0.0,
     if transient > 0:
         y, z = advance(system, y, z, t0, t0 + transient, rtol)
     t_eval = t0 + transient + dt * np.arange(n_samples)
-    z_start = z.copy()
-    # atol rtol * scales (every state absolute), not system.tolerance(rtol): a scene's own
-    # tolerance (positions absolute, rates relative) gives other samples, and trajectory() has
-    # always used this one (docs/architecture.md, "The System interface")
+    # the system's own tolerance, system.tolerance(rtol), as every integration of the system
     out = integrate(system, t0 + transient, y, z, t_eval, land=False, rtol=rtol,
-                    atol=rtol * system.scales, max_steps=DEFAULT_MAX_STEPS)
+                    max_steps=DEFAULT_MAX_STEPS)
     if out.status != 0:
         raise SolveError(f"{system.name}: " + failure_message(system, out, float(t0 + transient), y,
-                                                                z_start, rtol, rtol * system.scales))
+                                                                z, rtol))
     return t_eval, out.Y

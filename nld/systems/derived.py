@@ -110,18 +110,12 @@ class SectionRun:
 def contact_events(system) -> np.ndarray:
     """Indices of the events that are contacts: a scene's penetration events (one per clearance
     joint, upward = onset); for another flow ``system.contact_events`` if set, else all events."""
-    kern = system.kernel
-    if kern is not None:
-        return np.arange(len(kern.topo.clearance), dtype=np.int64)
+    if system.is_scene:
+        return np.arange(len(system.kernel.topo.clearance), dtype=np.int64)
     ce = system.contact_events
     if ce is not None:
         return np.array(ce, dtype=np.int64)
     return np.arange(int(system.n_events), dtype=np.int64)
-
-
-def kern_of(system):
-    """The compiled kernel of a scene system, else None (``System.kernel``)."""
-    return system.kernel
 
 
 def memory_pairs(system) -> list:
@@ -129,9 +123,8 @@ def memory_pairs(system) -> list:
     z[ci] is reset at the onset of clearance joint ci (event ci, named ``<joint>.v_onset``);
     another flow's memory entry j by contact event j (named ``z<i>``), -1 where there is none."""
     mem = [int(i) for i in system.memory]
-    kern = kern_of(system)
-    if kern is not None:
-        return [(i, i, f"{kern.topo.clearance[i]}.v_onset") for i in mem]
+    if system.is_scene:
+        return [(i, i, f"{system.kernel.topo.clearance[i]}.v_onset") for i in mem]
     ce = contact_events(system)
     return [(i, int(ce[j]) if j < ce.size else -1, f"z{i}") for j, i in enumerate(mem)]
 
@@ -156,9 +149,8 @@ def label_entries(system) -> np.ndarray:
     a scene, not the dependent coordinates' warm start. A periodic orbit must return to them."""
     nz = system.z0.size
     skip = set(int(i) for i in system.memory)
-    kern = system.kernel
-    if kern is not None:
-        nc, nd = len(kern.topo.clearance), len(kern.topo.dependent)
+    if system.is_scene:
+        nc, nd = len(system.kernel.topo.clearance), len(system.kernel.topo.dependent)
         skip |= set(range(nc, nc + nd))
     return np.array([i for i in range(nz) if i not in skip], dtype=np.int64)
 
@@ -186,15 +178,14 @@ class _FlowMap(System):
         self.labels = label_entries(system)
         # the contact event that resets each memory entry (a scene: z[ci] is reset at the onset
         # of clearance joint ci; another flow: memory entry j by contact event j), -1: none
-        if kern_of(system) is not None:
+        if system.is_scene:
             self.memory_events = self.memory.copy()
         else:
             self.memory_events = np.array([j if j < self.contacts.size else -1
                                            for j in range(self.memory.size)], dtype=np.int64)
         mem_names = [f"z{i}" for i in self.memory]
-        kern = system.kernel
-        if kern is not None:
-            mem_names = [f"{kern.topo.clearance[i]}.v_onset" for i in self.memory]
+        if system.is_scene:
+            mem_names = [f"{system.kernel.topo.clearance[i]}.v_onset" for i in self.memory]
         self.state_names = list(system.state_names) + mem_names
         self.scales = np.concatenate([system.scales, self._memory_scales()])
         # step budget of one map step: 20x the most steps a step has taken so far (at least
@@ -489,22 +480,20 @@ class StroboscopicMap(_FlowMap):
         """orbit(land=True): one chunked integration from t0 landing on every section time."""
         from nld.errors import Interrupted
         from nld.integrators import method_status_message
-        from nld.run.simulate import (INTERRUPTED, event_log_size, integrate_chunked,
-                                      interrupted_message)
+        from nld.run.simulate import INTERRUPTED, event_log_size, interrupted_message
         sysm = self.flow
         t0 = self.t0
         k0 = transient if start else transient + 1
         k = np.arange(k0, k0 + n)
         te = np.ascontiguousarray(t0 + k * self.T, dtype=float)
-        z = np.array(zz, dtype=float)
         y = np.ascontiguousarray(y, dtype=float)
         max_log = event_log_size((te[-1] - t0) / float(sysm.period))
-        out = integrate_chunked(sysm.solve, float(t0), y, te, True, sysm.p, z, self.rtol, atol,
-                                float(sysm.hmax), int(max_steps), int(sysm.n_events), max_log,
-                                self.T, progress=progress, period=self.T,
-                                desc=desc or f"section {sysm.name}")
-        status, t_reached, Y, m, st, ev_t, ev_k, ev_dir, n_logged, Z, interrupted = out
-        m = int(m)
+        out = integrate(sysm, t0, y, zz, te, land=True, rtol=self.rtol, atol=atol,
+                        max_steps=max_steps, max_log=max_log, span=self.T, progress=progress,
+                        desc=desc or f"section {sysm.name}")
+        status, t_reached, Y, st, Z, z = out.status, out.t, out.Y, out.stats, out.Z, out.z
+        ev_t, ev_k, ev_dir, n_logged = out.ev_t, out.ev_k, out.ev_dir, out.n_ev
+        m = int(out.n_out)
         # onsets over the recorded steps: after the first recorded point's time (start) or the
         # transient's end
         t_rec = t0 + transient * self.T
@@ -527,7 +516,7 @@ class StroboscopicMap(_FlowMap):
         if n_logged <= max_log:
             run.step_onsets = self._step_onsets(te[:m], ev_t[:n_logged], ev_k[:n_logged],
                                                 ev_dir[:n_logged])
-        if interrupted:
+        if out.interrupted:
             raise Interrupted(msg or "interrupted", partial=run,
                               kept=f"{m} of {n} section points (t = {t0:g} .. {t_reached:.6g} s)")
         return run

@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nld.errors import SolveError
-from nld.systems.base import integrate
+from nld.systems.core import advance
 
 __all__ = ["land", "locate_crossing", "XTOL_REL"]
 
@@ -26,15 +25,12 @@ XTOL_REL = 1e-13       # Brent's absolute time tolerance, relative to max(1, |t1
 def land(system, y, z, t0: float, t1: float, rtol: float, atol, hmax: float, max_steps: int,
          max_log: int = 1):
     """(y(t1), z(t1)) from (t0, y, z): the system's integrator landing exactly on t1 (copies; the
-    inputs are not modified). SolveError when the integration fails."""
+    inputs are not modified): ``nld.systems.core.advance``, and for t1 <= t0 the start itself.
+    SolveError when the integration fails."""
     if t1 <= t0:
         return np.array(y, dtype=float), np.array(z, dtype=float)
-    out = integrate(system, t0, y, z, np.array([float(t1)]), land=True, rtol=rtol, atol=atol,
-                    hmax=hmax, max_steps=max_steps, max_log=max_log)
-    if out.status < 0 or out.n_out < 1:
-        raise SolveError(f"{system.name}: the landing integration from "
-                         f"t = {t0:.9g} s to {t1:.9g} s failed (status {int(out.status)})")
-    return out.Y[0].copy(), out.z
+    return advance(system, y, z, t0, t1, rtol, atol=atol, hmax=hmax, max_steps=max_steps,
+                   max_log=max_log)
 
 
 def locate_crossing(system, g, t0: float, y0, z0, t1: float, *, rtol: float, atol=None,

@@ -33,6 +33,7 @@ from nld.integrators.tangent import (DG_DIV, DG_EVENTS, DG_GRAZE, DG_LOGDET, DG_
                                   DG_SIMUL, DG_UP, N_DIAG, bind_tangent, dopri5_tangent,
                                   no_events_jvp, no_on_event_jvp)
 from nld.integrators.core import no_events, no_on_event
+from nld.systems.base import integrate_tangent
 
 __all__ = ["TangentRun", "run_tangent", "tangent_functions", "diag_dict"]
 
@@ -267,7 +268,6 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
     ``system.tolerance(rtol)`` as for every integration of the system. diag: None, or an array
     from ``nld.integrators.tangent.crossing_diag`` (accumulated in place). Raises SolveError if
     the integration fails (the message says where and why)."""
-    solve, _ = tangent_functions(system)
     y = np.array(y, dtype=float)
     z = np.array(z, dtype=float)
     W = np.ascontiguousarray(np.array(W, dtype=float))
@@ -282,16 +282,13 @@ def run_tangent(system, y, z, W, Wz, t0: float, marks, rtol: float, *, tangent_e
     if diag is None:
         dg[DG_MINRATIO] = np.inf
     atol = system.tolerance(rtol)
-    out = solve(float(t0), y, z, W, Wz, marks, system.p, float(rtol), atol, system.scales,
-                float(h0), float(system.hmax), int(max_steps), int(system.n_events),
-                bool(tangent_err), bool(want_div), dg, logs,
-                int(system.event_samples), bool(orthonormalise))
-    status, t_reached, y_out, n_done, stats, h_next = out
-    if status not in (0, 1):
-        from nld.integrators.core import Solution
+    solve, _ = tangent_functions(system)
+    out = integrate_tangent(system, solve, t0, y, z, W, Wz, marks, rtol, atol=atol,
+                            tangent_err=tangent_err, want_div=want_div, h0=h0,
+                            max_steps=max_steps, diag=dg, logs=logs, orthonormalise=orthonormalise)
+    if out.status not in (0, 1):
         from nld.systems.core import failure_message
-        fail = Solution(status, t_reached, None, 0, stats, None, None, None, 0, None)
         raise SolveError(f"{system.name} (tangent): " + failure_message(
-            system, fail, float(t0), y, z, rtol, atol, system.hmax, y_fail=y_out, method="dopri5"))
-    return TangentRun(int(status), float(t_reached), y_out, z, W, Wz, logs[:n_done], stats,
-                      float(h_next), dg)
+            system, out, float(t0), y, z, rtol, atol, system.hmax, y_fail=out.y, method="dopri5"))
+    return TangentRun(int(out.status), float(out.t), out.y, z, W, Wz, logs[:out.n_done],
+                      out.stats, float(out.h_next), dg)
