@@ -185,14 +185,10 @@ def test_private_use_walker_finds_both_forms(tmp_path):
 
 # uses the front ends still make (nld/cli is edited by another hand in issue 39): the public
 # nld.interrupt.forget_received() replaces them; remove these two when nld/cli calls it
-NOT_YET = {"nld.cli.app:50 reads _RECEIVED of nld.interrupt",
-           "nld.cli:46 reads _RECEIVED of nld.interrupt"}
-
-
 def test_no_private_name_across_modules():
     """No module uses a private name of another module (issue 39): what two modules share is
     public, so that the architecture test sees it."""
-    assert [u for u in private_uses(modules()) if u not in NOT_YET] == []
+    assert private_uses(modules()) == []
 
 
 def test_packages_follow_the_pipeline_layers(graph):

@@ -101,13 +101,13 @@ def _settings(scene, had, *, method, gain, memory, signal, delay, target_period,
     ctl = scene.controller
     file = ctl if had else None
 
-    def pick(key, given, default):
+    def pick(given, from_file, default):
         if given is not None:
             return given
-        if file is not None and getattr(file, key) not in (None, ""):
-            return getattr(file, key)
+        if file is not None and from_file not in (None, ""):
+            return from_file
         return default
-    method = pick("method", method, CONTROL.method)
+    method = pick(method, ctl.method, CONTROL.method)
     gain = gain if gain is not None else (
         file.gain if file is not None and file.gain != 0.0 else CONTROL.gain)
     memory_default = 0.0 if method == "pyragas" else CONTROL.memory
@@ -120,7 +120,7 @@ def _settings(scene, had, *, method, gain, memory, signal, delay, target_period,
     if not 0.0 <= memory < 1.0:
         raise InputError(f"{src} = {memory!r}: R must be in [0, 1) (0: Pyragas; EDFC weights "
                          f"period k by R^(k-1))")
-    signal = pick("signal", signal, f"{ctl.body}.phi_dot")
+    signal = pick(signal, ctl.signal, f"{ctl.body}.phi_dot")
     delay = delay if delay is not None else (file.delay if file is not None else None)
     if delay is not None and not delay > 0:
         raise InputError(f"{name('delay')} = {delay!r}: tau must be a positive time in s (the "

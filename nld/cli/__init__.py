@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     commands' modules are imported: a Ctrl-C (or SIGTERM) while they load (numpy, pandas: seconds
     on a loaded machine) is one line and exit 128 + signal like any other, not a traceback."""
     from nld import interrupt
-    interrupt._RECEIVED.clear()
+    interrupt.forget_received()
     try:
         interrupt.install()
         from nld.cli import app

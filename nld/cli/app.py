@@ -47,7 +47,7 @@ def main(argv=None) -> int:
     from nld import interrupt
     from nld import progress
     argv = list(sys.argv[1:] if argv is None else argv)
-    interrupt._RECEIVED.clear()           # before install: a signal from now on is counted
+    interrupt.forget_received()           # before install: a signal from now on is counted
     try:
         interrupt.install()               # inside the try: a Ctrl-C right after it is one line
         try:
