@@ -59,7 +59,7 @@ from nld.analysis.orbits import (PeriodicOrbit, _Shooting, _finite, _orbit_monod
                                  periodic_orbit)
 from nld.systems.derived import never_reset
 
-__all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation",
+__all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation", "plot_curves",
            "CURVE_KINDS", "CURVE_END_REASONS", "SPECIAL_KINDS", "FD_U", "FD_PARAM"]
 
 CURVE_KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing")
@@ -721,3 +721,45 @@ def domain_exits(curve: BifurcationCurve, label2: str) -> list:
                                 abs(curve.values1[i] - curve.values1[j]),
                                 abs(curve.values2[i] - curve.values2[j])))
     return out
+
+
+CURVE_STYLES = {"period_doubling": ("C3", "-", "period doubling"), "fold": ("C0", "-", "fold"),
+                "neimark_sacker": ("C2", "-", "Neimark-Sacker"), "grazing": ("C1", "--", "grazing")}
+SPECIAL_MARKERS = {"cusp": "^", "turning_point": "o", "fold_flip": "s", "resonance_1_1": "D",
+                   "resonance_1_2": "d", "contact_change": "x", "leaves_domain": "|"}
+
+
+def plot_curves(curves, *, ax=None, x_scale: float = 1.0, y_scale: float = 1.0,
+                x_label: str | None = None, y_label: str | None = None, title: str | None = None,
+                legend: bool = True):
+    """Bifurcation curves in the (param1, param2) plane (param1 across, param2 up), each kind in
+    its colour (:data:`CURVE_STYLES`), the codim-2 points marked (:data:`SPECIAL_MARKERS`) with
+    their uncertainty as error bars. ``ax``: draw into it (e.g. over a chaos map); returns the
+    figure."""
+    from nld.output.plots import figure_axes
+    fig, ax = figure_axes(ax)
+    shown = set()
+    for c in curves:
+        col, ls, name = CURVE_STYLES.get(c.kind, ("k", "-", c.kind))
+        x = np.asarray(c.values1, dtype=float) * x_scale
+        y = np.asarray(c.values2, dtype=float) * y_scale
+        ax.plot(x, y, ls, color=col, lw=1.6, marker=".", ms=3,
+                label=f"{name} curve" if name not in shown else None)
+        shown.add(name)
+        for s in c.special_points:
+            mk = SPECIAL_MARKERS.get(s.kind, "*")
+            ax.errorbar([s.value1 * x_scale], [s.value2 * y_scale],
+                        xerr=[_finite_or0(s.uncertainty1) * x_scale],
+                        yerr=[_finite_or0(s.uncertainty2) * y_scale], fmt=mk, color="k",
+                        ms=6, mfc="none", capsize=2,
+                        label=s.kind.replace("_", " ") if s.kind not in shown else None)
+            shown.add(s.kind)
+    if x_label is not None or curves:
+        ax.set_xlabel(x_label if x_label is not None else str(curves[0].param1))
+    if y_label is not None or curves:
+        ax.set_ylabel(y_label if y_label is not None else str(curves[0].param2))
+    if title is not None:
+        ax.set_title(title)
+    if legend and shown:
+        ax.legend(fontsize=7)
+    return fig
