@@ -352,7 +352,17 @@ def _corrector(ext, V_pred, Z, t_vec, fix2, tol, gtol, max_iter=10, info=None,
             break
         try:
             r, g, A, J, steps, m = ext.evaluate(V, Z)
-            D = ext.system_jacobian(V, Z, r, g, J)
+            if polished is None:
+                D = ext.system_jacobian(V, Z, r, g, J)
+            else:
+                # the step past the tolerances: the last point's finite-difference columns (it
+                # moved by less than the tolerances) with this point's analytic G_U, not a
+                # fresh Jacobian (n p + 2 tangent integrations saved per curve point)
+                D = polished[3].copy()
+                nU = V.size - 2
+                D[:nU, :nU] = J
+                if ext.frozen.size:
+                    D[:, ext.frozen] = 0.0
         except _Domain as e:
             if polished is not None:
                 return polished[:6]
