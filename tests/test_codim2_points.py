@@ -7,6 +7,8 @@ nld.analysis.grazing_curve), each against a closed form.
   sits at (a, b) = (3, -1); on the fold curve (mu = +1) the other multiplier is -b, the curve is
   a = -(1 - b)^2 / 4 and the 1:1 resonance (a second +1) sits at (a, b) = (-1, -1). (A forced
   damped Duffing cannot have either: its two multipliers' product is exp(-delta T) in (0, 1).)
+* A map with the fixed point 0 for all parameters and the multipliers a - 1 and b there: its
+  flip curve is a = 0, and on it the fold-flip (the other multiplier through +1) sits at b = 1.
 * The impact oscillator x'' + 2 zeta x' + x = F cos(omega t) (free of the stop at x = d): its
   period-1 orbit grazes the stop where the linear response's amplitude
   F / sqrt((1 - omega^2)^2 + (2 zeta omega)^2) equals the gap d (tests/impact_closed_form.py)."""
@@ -18,7 +20,9 @@ import pytest
 from nld.analysis.codim2 import continue_bifurcation
 from nld.analysis.continuation import continue_orbit
 from nld.analysis.orbits import periodic_orbit
-from nld.systems import henon, impact_oscillator
+from numba import njit
+
+from nld.systems import DiscreteMap, henon, impact_oscillator
 
 
 @pytest.fixture(scope="module")
@@ -74,3 +78,34 @@ def test_impact_oscillator_grazing_curve_is_the_closed_form():
     # the contact side's approach speed is small (grazing), where the contact was counted
     speeds = np.array(c.condition, dtype=float)
     assert np.all(speeds[np.isfinite(speeds)] < 1e-2)
+
+
+@njit(cache=False)
+def _fold_flip_map(x, p, out):
+    out[0] = (p[0] - 1.0) * x[0] - x[0] ** 3 + 0.3 * x[1]
+    out[1] = p[1] * x[1] - x[1] ** 3 + 0.2 * x[0] * x[1]
+
+
+@njit(cache=False)
+def _fold_flip_jac(x, p, J):
+    J[0, 0] = p[0] - 1.0 - 3.0 * x[0] ** 2
+    J[0, 1] = 0.3
+    J[1, 0] = 0.2 * x[1]
+    J[1, 1] = p[1] - 3.0 * x[1] ** 2 + 0.2 * x[0]
+
+
+def test_fold_flip_on_a_doubling_curve_where_the_closed_form_puts_it():
+    M = DiscreteMap(_fold_flip_map, [0.0, 0.0], [0.3, 0.5], "fold-flip map",
+                    jacobian=_fold_flip_jac, state_names=["x", "y"])
+    o = periodic_orbit(M, 1, [0.01, 0.01])
+    br = continue_orbit(M, o, 0, range=(-0.3, 0.3), step=0.02, criticality=False)
+    pd = [b for b in br.bifurcations if b.kind == "period_doubling"]
+    assert len(pd) == 1
+    c = continue_bifurcation(M, pd[0], 1, (0.5, 1.5), param=0)
+    assert c.completed and all(abs(a) <= t + 1e-12 for a, t in zip(c.values1, c.tolerance1))
+    # one special point: the fold-flip (no turning point: a stays 0 along the curve, its
+    # tangent component is rounding noise)
+    assert [s.kind for s in c.special_points] == ["fold_flip"]
+    s = c.special_points[0]
+    assert abs(s.value1) <= s.uncertainty1 + 1e-12 and abs(s.value2 - 1.0) <= s.uncertainty2
+    assert s.uncertainty2 < 0.1

@@ -75,6 +75,7 @@ SPECIAL_KINDS = ("turning_point", "cusp", "fold_flip", "resonance_1_1", "resonan
                  "contact_change", "leaves_domain")
 FD_U = 1e-5          # forward-difference step in the scaled shooting unknowns
 FD_PARAM = 1e-2      # forward-difference step in a parameter, of its arclength unit sigma
+TURN_NOISE = 1e-6     # a unit tangent's parameter component below this is taken as zero
 MAX_MOVE = 2.0       # a corrector farther than this many steps from its predictor diverged
 
 
@@ -688,7 +689,9 @@ def _special(ext, recs, label1, label2):
                                   " direction changes sign)"))
             continue
         for k, lab in ((-2, label1), (-1, label2)):
-            if ta[k] * tb[k] < 0:
+            # (a parameter that stays constant along the curve has a tangent component of
+            # rounding size whose sign flips at random: not a turning point)
+            if ta[k] * tb[k] < 0 and max(abs(ta[k]), abs(tb[k])) > TURN_NOISE:
                 w = ta[k] / (ta[k] - tb[k])
                 out.append(_bracketed("turning_point", ra, rb, i, w,
                                       f"the curve turns back in {lab}"))
