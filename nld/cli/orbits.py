@@ -80,7 +80,9 @@ def add_parser(sub):
                      help="natural continuation at exactly the values given (stops at a fold)")
     sc.add_argument("--rtol", type=rtol_arg, default=LYAPUNOV.rtol, metavar="R",
                     help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
-    sc.add_argument("--out", metavar="DIR", help="write branch.parquet and bifurcations.parquet")
+    sc.add_argument("--out", metavar="DIR", help="write branch.parquet and bifurcations.parquet "
+                                                 "(and curve.parquet, curve_special_points.parquet "
+                                                 "with --follow)")
     sc.add_argument("--plot", metavar="FILE", help="draw the branch (.png, .pdf or .svg)")
     sc.add_argument("--observable", default=None, metavar="COL",
                     help="table column drawn by --plot (default: <first clearance joint>.ex)")
