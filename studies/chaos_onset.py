@@ -553,6 +553,10 @@ def _curves_texts(res, ex: pd.DataFrame, map_wall: float, cells: int) -> list:
             "the attractor the map's transient reached: coexistence, e.g. the permanent-contact "
             "orbit whose memory sets its doubling, docs/orbits.md), or both sides regular (a "
             "doubling to a stable period-2 orbit).")
+        for r in dis.head(12).itertuples():
+            what = ("map boundary, no curve" if r.map_boundary else f"{r.curves} between "
+                    f"{r.left} and {r.right} cells")
+            lines.append(f"- μ = {r.mu:g}, c {r.c_left_mm:g} … {r.c_right_mm:g} mm: {what}.")
     return lines
 
 
