@@ -598,7 +598,13 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     cs = st_all.get("curves")
     res = None
     if cs:
-        res = follow_curves(cs, st_all["slider_crank"]["values_y"])
+        from nld.errors import InputError, SolveError
+        t_c = time.perf_counter()
+        try:
+            res = follow_curves(cs, st_all["slider_crank"]["values_y"])
+        except (SolveError, InputError) as e:      # said on the page, the map is kept
+            res = {"curves": [], "branch": None, "notes": [f"the curves failed: {e}"],
+                   "walls": {"orbit_and_branch": time.perf_counter() - t_c}}
     ctab = curves_table(res) if res is not None else curves_table({"curves": []})
     ex = explain(maps["slider_crank"], res if res is not None else {"curves": []})
     summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])
