@@ -557,6 +557,13 @@ def _curves_texts(res, ex: pd.DataFrame, map_wall: float, cells: int) -> list:
             "the attractor the map's transient reached: coexistence, e.g. the permanent-contact "
             "orbit whose memory sets its doubling, docs/orbits.md), or both sides regular (a "
             "doubling to a stable period-2 orbit).")
+        if len(dis) and (dis["left"].eq("permanent contact") | dis["right"].eq("permanent contact")).any():
+            lines.append(
+                "Cells in permanent contact: the map's exponent there is conditional on the contact "
+                "memory and decides neither chaos nor its onset; a doubling curve of the "
+                "permanent-contact period-1 orbit inside them is the boundary of its stability "
+                "(period-2 motion beyond a supercritical doubling), finer than a cell: a "
+                "disagreement of resolution, not of result.")
         for r in dis.head(12).itertuples():
             what = ("map boundary, no curve" if r.map_boundary else f"{r.curves} between "
                     f"{r.left} and {r.right} cells")
