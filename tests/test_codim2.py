@@ -102,6 +102,12 @@ def test_fold_curves_meet_at_their_cusp_and_agree_with_one_parameter_folds():
         else:
             lo = mid
     assert cusps[0].value2 == pytest.approx(hi, rel=1e-2)
+    # located where the curve's gamma direction changes sign, uncertain by at most its bracket
+    i, j = cusps[0].between
+    assert min(c.values2[i], c.values2[j]) - 1e-12 <= cusps[0].value2 <= \
+        max(c.values2[i], c.values2[j]) + 1e-12
+    assert 0 < cusps[0].uncertainty2 <= abs(c.values2[j] - c.values2[i]) + 1e-15
+    assert c.special_table()["uncertainty2"].notna().all()
     # every point a fold: a multiplier +1 to the curve's accuracy
     assert max(c.distance) < 1e-6
 
@@ -150,8 +156,8 @@ def test_bad_input_is_refused_before_any_integration(monkeypatch, doubling_curve
         raise AssertionError("integrated before checking the input")
 
     monkeypatch.setattr(c2._Extended, "evaluate", boom)
-    ns = Bifurcation("grazing", pd.value, 1e-6, None, pd.orbit, "")
-    with pytest.raises(InputError, match="bif.kind = 'grazing'"):
+    ns = Bifurcation("contact_change", pd.value, 1e-6, None, pd.orbit, "")
+    with pytest.raises(InputError, match="bif.kind = 'contact_change'"):
         continue_bifurcation(S, ns, "omega", (1.1, 1.3), param="gamma")
     with pytest.raises(InputError, match="do not contain"):
         continue_bifurcation(S, pd, "omega", (1.3, 1.4), param="gamma")

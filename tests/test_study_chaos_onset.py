@@ -23,11 +23,37 @@ def test_quick_writes_pdf_and_data(quick_run):
     assert pdf == out / "chaos_onset.pdf" and pdf.is_file()
     data = pdf.read_bytes()
     assert data.startswith(b"%PDF") and b"quick" in data
-    # title page(s) + intro, findings, summary table, boundary table, 3 maps, discussion
+    # title page(s) + intro, findings, summary table, boundary table, 3 maps, discussion, the
+    # curves' page and their figure (no curve in quick mode: the page says why)
     title_pages = Report(out / "x.pdf", study.TITLE).title_page_count()
-    assert count_pages(pdf) == title_pages + 8
-    for f in ("chaos_onset.parquet", "chaos_onset_summary.csv", "chaos_onset_boundary.csv"):
+    assert count_pages(pdf) == title_pages + 10
+    for f in ("chaos_onset.parquet", "chaos_onset_summary.csv", "chaos_onset_boundary.csv",
+              "chaos_onset_curves.csv"):
         assert (out / f).is_file()
+    curves, prov = load_table(out / "chaos_onset_curves.csv")
+    assert len(curves) == 0 and prov["curves"]["skipped"] == study.CURVES_SKIPPED
+    assert "clearance_m" in curves.columns
+
+
+def test_explain_counts_the_map_boundaries_a_curve_crosses(quick_run):
+    # a synthetic map row and curve: the curve crosses mu = 0.1 between the cells 0.2 and 0.3 mm
+    # (a regular/chaotic sign change: explained) and mu = 0.2 between two regular cells (a
+    # disagreement); the sign change at mu = 0.2 between 0.3 and 0.5 mm is crossed by no curve
+    import pandas as pd
+    from types import SimpleNamespace
+    study, _, _ = quick_run
+    rows = []
+    for y, verdicts in ((0.1, ["regular", "regular", "chaotic", "chaotic"]),
+                        (0.2, ["regular", "regular", "regular", "chaotic"])):
+        for x, v in zip([0.1e-3, 0.2e-3, 0.3e-3, 0.5e-3], verdicts):
+            rows.append({"x": x, "y": y, "verdict": v})
+    curve = SimpleNamespace(kind="period_doubling", values1=[0.25e-3, 0.26e-3, 0.27e-3],
+                            values2=[0.05, 0.1, 0.25])
+    ex = study.explain(pd.DataFrame(rows), {"curves": [curve]})
+    got = {(r.mu, r.c_left_mm): (r.map_boundary, r.curves, r.agree) for r in ex.itertuples()}
+    assert got == {(0.1, 0.2): (True, "period_doubling", True),
+                   (0.2, 0.2): (False, "period_doubling", False),
+                   (0.2, 0.3): (True, "-", False)}
 
 
 def test_summary_matches_stored_map(quick_run):

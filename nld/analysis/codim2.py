@@ -59,19 +59,23 @@ from nld.analysis.orbits import (PeriodicOrbit, Shooting, finite, orbit_monodrom
                                  periodic_orbit)
 from nld.systems.derived import never_reset
 
-__all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation",
+__all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation", "plot_curves",
            "CURVE_KINDS", "CURVE_END_REASONS", "SPECIAL_KINDS", "FD_U", "FD_PARAM"]
 
-CURVE_KINDS = ("period_doubling", "fold", "neimark_sacker")
+CURVE_KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing")
 # why a curve ends in one direction from its start point: param2's range end reached; the
 # curve turned back in param2 (a cusp, a turning point) and reached the range's other end; a
 # parameter left its domain (a clearance <= 0, a friction coefficient < 0, a frequency <= 0 ...);
 # the corrector failed at the shortest step; max_points used
-CURVE_END_REASONS = ("range_end", "turned_back", "domain", "newton_failure", "step_limit")
+# (a grazing curve, followed by re-locating the grazing at each param2 value: "not_found" where
+# no grazing lies in the widened bracket at the shortest param2 step; nld.analysis.grazing_curve)
+CURVE_END_REASONS = ("range_end", "turned_back", "domain", "newton_failure", "step_limit",
+                     "not_found")
 SPECIAL_KINDS = ("turning_point", "cusp", "fold_flip", "resonance_1_1", "resonance_1_2",
-                 "contact_change")
+                 "contact_change", "leaves_domain")
 FD_U = 1e-5          # forward-difference step in the scaled shooting unknowns
 FD_PARAM = 1e-2      # forward-difference step in a parameter, of its arclength unit sigma
+TURN_NOISE = 1e-6     # a unit tangent's parameter component below this is taken as zero
 MAX_MOVE = 2.0       # a corrector farther than this many steps from its predictor diverged
 
 
@@ -79,15 +83,22 @@ MAX_MOVE = 2.0       # a corrector farther than this many steps from its predict
 class SpecialPoint:
     """A point where the curve's kind changes, bracketed between curve points ``between``
     (indices into the curve): ``kind`` one of :data:`SPECIAL_KINDS`; ``value1``, ``value2`` the
-    linear interpolation of the sign change of its test function; ``detail`` one line."""
+    linear interpolation of the sign change of its test function between the two points,
+    ``uncertainty1``, ``uncertainty2`` how far the true point may be from it in each parameter
+    (the interpolation's larger distance to the bracket's ends plus the points' tolerance1: the
+    test function is only known to change sign somewhere between them); for ``leaves_domain``
+    the last point inside and the last step; ``detail`` one line."""
     kind: str
     value1: float
     value2: float
     between: tuple
     detail: str
+    uncertainty1: float = math.nan
+    uncertainty2: float = math.nan
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "value1": self.value1, "value2": self.value2,
+                "uncertainty1": self.uncertainty1, "uncertainty2": self.uncertainty2,
                 "between": list(self.between), "detail": self.detail}
 
 
@@ -168,7 +179,8 @@ class BifurcationCurve:
 
     def special_table(self) -> pd.DataFrame:
         return pd.DataFrame([s.to_dict() for s in self.special_points],
-                            columns=["kind", "value1", "value2", "between", "detail"])
+                            columns=["kind", "value1", "uncertainty1", "value2", "uncertainty2",
+                                     "between", "detail"])
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -341,7 +353,17 @@ def _corrector(ext, V_pred, Z, t_vec, fix2, tol, gtol, max_iter=10, info=None,
             break
         try:
             r, g, A, J, steps, m = ext.evaluate(V, Z)
-            D = ext.system_jacobian(V, Z, r, g, J)
+            if polished is None:
+                D = ext.system_jacobian(V, Z, r, g, J)
+            else:
+                # the step past the tolerances: the last point's finite-difference columns (it
+                # moved by less than the tolerances) with this point's analytic G_U, not a
+                # fresh Jacobian (n p + 2 tangent integrations saved per curve point)
+                D = polished[3].copy()
+                nU = V.size - 2
+                D[:nU, :nU] = J
+                if ext.frozen.size:
+                    D[:, ext.frozen] = 0.0
         except _Domain as e:
             if polished is not None:
                 return polished[:6]
@@ -449,8 +471,9 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
                          step: float | None = None, scale1: float | None = None,
                          max_points: int = 100, tol: float | None = None,
                          gtol: float | None = None, progress=None) -> BifurcationCurve:
-    """Follow a located period doubling, fold or Neimark-Sacker point ``bif`` (of a branch
-    continued in ``param``) in
+    """Follow a located period doubling, fold, Neimark-Sacker or grazing point ``bif`` (of a
+    branch continued in ``param``; grazing: :func:`nld.analysis.grazing_curve.continue_grazing`)
+    in
     ``param2`` over ``range2`` = (a, b), which must contain the system's value of param2.
 
     system: the system of the branch (its value of ``param`` is replaced by ``bif.value``).
@@ -475,6 +498,10 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
     if bif.kind not in CURVE_KINDS:
         raise InputError(f"bif.kind = {bif.kind!r}: continue_bifurcation follows "
                          f"{', '.join(CURVE_KINDS)} (docs/codim2.md: what remains)")
+    if bif.kind == "grazing":
+        from nld.analysis.grazing_curve import continue_grazing
+        return continue_grazing(system, bif, param2, range2, param=param, stops=stops,
+                                step=step, max_points=max_points, tol=tol, progress=progress)
     o0 = bif.orbit
     if o0 is None or not o0.converged:
         raise InputError("bif: has no converged orbit at its located value")
@@ -605,7 +632,8 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
                              [r[1] for r in recs], [r[2] for r in recs], [r[0] for r in recs],
                              [r[3] for r in recs], [r[4] for r in recs], [r[5] for r in recs],
                              [bool(r[6]) for r in recs], [], ends, "", {})
-    curve.special_points = _special(ext, recs, fam1.label, fam2.label)
+    curve.special_points = _special(ext, recs, fam1.label, fam2.label) + \
+        domain_exits(curve, fam2.label)
     curve.message = ("completed" if curve.completed else
                      "; ".join(f"direction {e.direction:+d} ended at ({e.value1:g}, {e.value2:g}): "
                                f"{e.reason}: {e.detail}" for e in ends))
@@ -620,7 +648,25 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
     return curve
 
 
+def _bracketed(kind, ra, rb, i, w, detail):
+    """A SpecialPoint at the fraction w in [0, 1] from curve point ra to rb, with the
+    uncertainty of a sign change known only to lie between them (SpecialPoint)."""
+    w = min(max(float(w), 0.0), 1.0)
+    d1, d2 = rb[1] - ra[1], rb[2] - ra[2]
+    far = max(w, 1.0 - w)
+    tol = max(_finite_or0(ra[5]), _finite_or0(rb[5]))
+    return SpecialPoint(kind, ra[1] + w * d1, ra[2] + w * d2, (i, i + 1), detail,
+                        far * abs(d1) + tol, far * abs(d2))
+
+
+def _finite_or0(x) -> float:
+    return float(x) if x is not None and math.isfinite(x) else 0.0
+
+
 def _special(ext, recs, label1, label2):
+    """The codim-2 points between consecutive curve points (module docstring; docs/codim2.md):
+    each the linear interpolation of its test function's sign change, with the bracket as its
+    uncertainty."""
     out = []
     kind = ext.kind
     for i in range(len(recs) - 1):
@@ -630,27 +676,30 @@ def _special(ext, recs, label1, label2):
         if float(ta @ tb) < 0:
             tb = -tb
         qa, qb = ta[-2:] / np.linalg.norm(ta[-2:]), tb[-2:] / np.linalg.norm(tb[-2:])
-        if kind == "fold" and float(qa @ qb) < 0 and ta[-1] * tb[-1] < 0 or \
-                kind == "fold" and float(qa @ qb) < 0 and ta[-2] * tb[-2] < 0:
+        if kind == "fold" and float(qa @ qb) < 0 and (ta[-1] * tb[-1] < 0 or
+                                                      ta[-2] * tb[-2] < 0):
             # the curve's projection on the parameter plane reverses: a cusp (two fold curves
-            # meet tangentially; Kuznetsov 2004, sec. 8.2 and 9.5)
-            w = 0.5
-            out.append(SpecialPoint("cusp", ra[1] + w * (rb[1] - ra[1]),
-                                    ra[2] + w * (rb[2] - ra[2]), (i, i + 1),
-                                    "the fold curve's projection on the parameter plane "
-                                    "reverses (the two folds of the branch meet)"))
+            # meet tangentially; Kuznetsov 2004, sec. 8.2 and 9.5). Located where the reversing
+            # parameter's direction (the tangent's component) changes sign
+            k = -1 if ta[-1] * tb[-1] < 0 else -2
+            w = ta[k] / (ta[k] - tb[k])
+            out.append(_bracketed("cusp", ra, rb, i, w,
+                                  "the fold curve's projection on the parameter plane reverses "
+                                  f"(the two folds of the branch meet; {label2 if k == -1 else label1}"
+                                  " direction changes sign)"))
             continue
         for k, lab in ((-2, label1), (-1, label2)):
-            if ta[k] * tb[k] < 0:
+            # (a parameter that stays constant along the curve has a tangent component of
+            # rounding size whose sign flips at random: not a turning point)
+            if ta[k] * tb[k] < 0 and max(abs(ta[k]), abs(tb[k])) > TURN_NOISE:
                 w = ta[k] / (ta[k] - tb[k])
-                out.append(SpecialPoint("turning_point", ra[1] + w * (rb[1] - ra[1]),
-                                        ra[2] + w * (rb[2] - ra[2]), (i, i + 1),
-                                        f"the curve turns back in {lab}"))
+                out.append(_bracketed("turning_point", ra, rb, i, w,
+                                      f"the curve turns back in {lab}"))
         fa, pa = _others(ext, ra[0])
         fb, pb = _others(ext, rb[0])
         checks = [] if kind == "neimark_sacker" else \
             [("fold_flip", pa, pb, "a second multiplier through -1 on a fold curve"),
-                  ("resonance_1_1", fa, fb, "a second multiplier through +1 on a fold curve")] \
+             ("resonance_1_1", fa, fb, "a second multiplier through +1 on a fold curve")] \
             if kind == "fold" else \
             [("fold_flip", fa, fb, "a multiplier through +1 on a period-doubling curve"),
              ("resonance_1_2", pa, pb, "a second multiplier through -1 on a period-doubling "
@@ -658,13 +707,72 @@ def _special(ext, recs, label1, label2):
         for name, xa, xb, why in checks:
             if xa * xb < 0:
                 w = xa / (xa - xb)
-                out.append(SpecialPoint(name, ra[1] + w * (rb[1] - ra[1]),
-                                        ra[2] + w * (rb[2] - ra[2]), (i, i + 1),
-                                        f"{why} (bracketed between curve points {i}, {i + 1})"))
+                out.append(_bracketed(name, ra, rb, i, w,
+                                      f"{why} (bracketed between curve points {i}, {i + 1})"))
         if ra[0].onsets_per_period != rb[0].onsets_per_period:
-            out.append(SpecialPoint("contact_change", 0.5 * (ra[1] + rb[1]),
-                                    0.5 * (ra[2] + rb[2]), (i, i + 1),
-                                    f"contact onsets per period {ra[0].onsets_per_period} -> "
-                                    f"{rb[0].onsets_per_period}: the curve meets a grazing "
-                                    f"curve"))
+            out.append(_bracketed("contact_change", ra, rb, i, 0.5,
+                                  f"contact onsets per period {ra[0].onsets_per_period} -> "
+                                  f"{rb[0].onsets_per_period}: the curve meets a grazing curve"))
     return out
+
+
+def domain_exits(curve: BifurcationCurve, label2: str) -> list:
+    """A ``leaves_domain`` SpecialPoint for each end of ``curve`` where a parameter left its
+    domain: at the last point inside, uncertain by the distance to its neighbour (the step the
+    corrector could not take lies beyond it)."""
+    out = []
+    n = len(curve.values1)
+    for e in curve.ends:
+        if e.reason != "domain" or n == 0:
+            continue
+        i = 0 if e.direction < 0 else n - 1
+        j = 1 if e.direction < 0 else n - 2
+        j = min(max(j, 0), n - 1)
+        out.append(SpecialPoint("leaves_domain", e.value1, e.value2, (min(i, j), max(i, j)),
+                                f"the curve leaves the parameters' domain towards "
+                                f"{'smaller' if e.direction < 0 else 'larger'} {label2}: {e.detail}",
+                                abs(curve.values1[i] - curve.values1[j]),
+                                abs(curve.values2[i] - curve.values2[j])))
+    return out
+
+
+CURVE_STYLES = {"period_doubling": ("C3", "-", "period doubling"), "fold": ("C0", "-", "fold"),
+                "neimark_sacker": ("C2", "-", "Neimark-Sacker"), "grazing": ("C1", "--", "grazing")}
+SPECIAL_MARKERS = {"cusp": "^", "turning_point": "o", "fold_flip": "s", "resonance_1_1": "D",
+                   "resonance_1_2": "d", "contact_change": "x", "leaves_domain": "|"}
+
+
+def plot_curves(curves, *, ax=None, x_scale: float = 1.0, y_scale: float = 1.0,
+                x_label: str | None = None, y_label: str | None = None, title: str | None = None,
+                legend: bool = True):
+    """Bifurcation curves in the (param1, param2) plane (param1 across, param2 up), each kind in
+    its colour (:data:`CURVE_STYLES`), the codim-2 points marked (:data:`SPECIAL_MARKERS`) with
+    their uncertainty as error bars. ``ax``: draw into it (e.g. over a chaos map); returns the
+    figure."""
+    from nld.output.plots import figure_axes
+    fig, ax = figure_axes(ax)
+    shown = set()
+    for c in curves:
+        col, ls, name = CURVE_STYLES.get(c.kind, ("k", "-", c.kind))
+        x = np.asarray(c.values1, dtype=float) * x_scale
+        y = np.asarray(c.values2, dtype=float) * y_scale
+        ax.plot(x, y, ls, color=col, lw=1.6, marker=".", ms=3,
+                label=f"{name} curve" if name not in shown else None)
+        shown.add(name)
+        for s in c.special_points:
+            mk = SPECIAL_MARKERS.get(s.kind, "*")
+            ax.errorbar([s.value1 * x_scale], [s.value2 * y_scale],
+                        xerr=[_finite_or0(s.uncertainty1) * x_scale],
+                        yerr=[_finite_or0(s.uncertainty2) * y_scale], fmt=mk, color="k",
+                        ms=6, mfc="none", capsize=2,
+                        label=s.kind.replace("_", " ") if s.kind not in shown else None)
+            shown.add(s.kind)
+    if x_label is not None or curves:
+        ax.set_xlabel(x_label if x_label is not None else str(curves[0].param1))
+    if y_label is not None or curves:
+        ax.set_ylabel(y_label if y_label is not None else str(curves[0].param2))
+    if title is not None:
+        ax.set_title(title)
+    if legend and shown:
+        ax.legend(fontsize=7)
+    return fig

@@ -54,7 +54,11 @@ def add_parser(sub):
                     "period doublings, folds, Neimark-Sacker and grazing (a contact appearing or "
                     "lost) located; each end of the branch with its reason. Writes "
                     "DIR/branch.parquet and DIR/bifurcations.parquet (provenance in their JSON "
-                    "sidecars) with --out; draws the branch with --plot. Every option is checked "
+                    "sidecars) with --out; draws the branch with --plot. With --follow KIND "
+                    "--param2 KEY2 --values2 A:B:N, the first located bifurcation of KIND is "
+                    "followed in KEY2 (its curve in DIR/curve.parquet and "
+                    "DIR/curve_special_points.parquet; --plot draws the curve in the (KEY, KEY2) "
+                    "plane; docs/codim2.md). Every option is checked "
                     "before the first integration (docs/continuation.md).")
     scene_args(sc)
     sc.add_argument("--param", required=True, metavar="KEY",
@@ -76,10 +80,14 @@ def add_parser(sub):
                      help="natural continuation at exactly the values given (stops at a fold)")
     sc.add_argument("--rtol", type=rtol_arg, default=LYAPUNOV.rtol, metavar="R",
                     help=f"relative tolerance (default {LYAPUNOV.rtol:g})")
-    sc.add_argument("--out", metavar="DIR", help="write branch.parquet and bifurcations.parquet")
+    sc.add_argument("--out", metavar="DIR", help="write branch.parquet and bifurcations.parquet "
+                                                 "(and curve.parquet, curve_special_points.parquet "
+                                                 "with --follow)")
     sc.add_argument("--plot", metavar="FILE", help="draw the branch (.png, .pdf or .svg)")
     sc.add_argument("--observable", default=None, metavar="COL",
                     help="table column drawn by --plot (default: <first clearance joint>.ex)")
+    from nld.cli import codim2
+    codim2.add_args(sc)              # --follow KIND --param2 KEY2 --values2 A:B:N (issue 41)
     sc.set_defaults(func=cmd_continue)
     return sp
 
@@ -257,6 +265,8 @@ def cmd_continue(args) -> int:
         fam.check(v, "--values:")
     system = fam.at(values[0])                   # the start: the first value asked for
     fam.at(values[-1])                           # the same structure at the other end
+    from nld.cli import codim2
+    fam2 = codim2.check(args, base, fam)         # --follow's options (None without it)
     if plot is not None and args.observable is not None:
         _observable_check(system, args.observable)
     natural = bool(args.natural)
@@ -316,6 +326,8 @@ def cmd_continue(args) -> int:
         p1 = save_table(tab, out / "branch.parquet", prov)
         p2 = save_table(bifs, out / "bifurcations.parquet", prov)
         print(f"wrote {p1} and {p2}")
+    if fam2 is not None:                         # the curve, drawn by --plot instead
+        return codim2.follow(args, system, br, out, plot, prov)
     if plot is not None:
         from nld.output.io import save_figure
         from nld.analysis.continuation import branch_curves
