@@ -118,6 +118,10 @@ SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # 3.5 and 3.75 µm, where Newton fails from both guesses: the motion is chaotic there). Measured
 # (time.process_time, this machine): route 110 CPU s with guess "previous", bisect 0 and no
 # iteration limit (of which 85 s in the three failed solves); with two bisections 186 s.
+# Time per phase of the full mode (CPU s, time.process_time, docs/route.md): the cases 22 s wall on
+# 2 workers; the 14 committed sweep points 9.7 CPU min in all (stop 27); the four route points
+# 19 + 19 + 53 + 18 s (92 s each before ROUTE_POINT); the route 70 s and the 5 µm orbit check 13 s
+# (before: 110 - 186 s), after the sweep in the main process.
 ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
                   max_period=0, transient=10, rtol=1e-8, bisect=0, guess="run", max_iter=5,
                   values=[3e-6, 3.5e-6, 3.75e-6])
