@@ -117,21 +117,26 @@ def branch_ends(br) -> list[dict]:
     return out
 
 
-def _continue(system, orbit, param, values, *, method, max_points, locate_tol):
+def _continue(system, orbit, param, values, *, method, max_points, locate_tol,
+              criticality: bool = True):
     """continue_orbit over the whole range of ``values`` (pseudo-arclength both ways), falling back
-    to natural continuation over ``values`` when arclength is not wanted or fails at once."""
+    to natural continuation over ``values`` when arclength is not wanted or fails at once;
+    ``criticality``: decide super-/subcritical at each located bifurcation (a search for the
+    bifurcating orbit on both sides: the costliest part of a short branch)."""
     from nld.analysis.continuation import continue_orbit
     from nld.errors import SolveError
     lo, hi = float(min(values)), float(max(values))
     if method == "arclength":
         try:
             br = continue_orbit(system, orbit, param, range=(lo, hi), method="arclength",
-                                max_points=max_points, locate_tol=locate_tol)
+                                max_points=max_points, locate_tol=locate_tol,
+                                criticality=criticality)
             if len(br.values) >= 2:
                 return br
         except SolveError:
             pass
-    return continue_orbit(system, orbit, param, values, method="natural", locate_tol=locate_tol)
+    return continue_orbit(system, orbit, param, values, method="natural", locate_tol=locate_tol,
+                          criticality=criticality)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -294,13 +299,15 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                    seeds_per_period: int = 4, locate_tol: float | None = None,
                    method: str = "arclength", max_points: int = 60, polish: bool = True,
                    observables=(), guess: str = "previous", bisect: int = 3,
-                   max_iter: int | None = None, progress=None) -> dict:
+                   max_iter: int | None = None, criticality: bool = True,
+                   progress=None) -> dict:
     """The period-1 orbit of ``scene`` at ``param`` = ``start`` (Newton shooting from the state
     after ``transient`` revolutions), continued over the range of ``values`` (the sweep's values;
     ``method`` "arclength": pseudo-arclength both ways from ``start``, at most ``max_points``
     points; "natural": over ``values``; ``param`` with several comma-separated keys: the keys set
     together, :func:`linked_branch` from ``start`` upwards over ``values``, with ``guess``,
-    ``bisect`` and ``max_iter``), its multipliers and
+    ``bisect`` and ``max_iter``; ``criticality`` False: super-/subcritical not decided, the
+    located bifurcations' criticality "undetermined"), its multipliers and
     the bifurcations located (``locate_tol``, default 1e-3 of the smallest step of ``values``); with
     ``polish`` the orbit again at each of ``values`` inside the branch's span (Newton from the
     nearest branch point: ``at_values``, for :func:`agreement`); ``observables``: table columns
@@ -327,7 +334,7 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                             max_period=max_period, seeds_per_period=seeds_per_period,
                             locate_tol=ltol, values=values, method="linked" if linked else method,
                             max_points=max_points, guess=guess, bisect=bisect,
-                            max_iter=max_iter)}
+                            max_iter=max_iter, criticality=criticality)}
     keys = _keys(param)
     S = _linked_system(scene, overrides, keys, start) if linked else \
         SceneSystem(scene, list(overrides) + [f"{param}={start!r}"])
@@ -348,7 +355,7 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                                max_iter=max_iter)
         else:
             br = _continue(S, o, param, grid, method=method, max_points=max_points,
-                           locate_tol=ltol)
+                           locate_tol=ltol, criticality=criticality)
         out["branch"] = br
         out["ends"] = branch_ends(br)
         joint = S.kernel.topo.clearance[0] if S.kernel.topo.clearance else None
@@ -954,7 +961,8 @@ def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
                           method=r.get("method", "arclength"),
                           max_points=r.get("max_points", 60), observables=observables,
                           guess=r.get("guess", "previous"), bisect=r.get("bisect", 3),
-                          max_iter=r.get("max_iter"))
+                          max_iter=r.get("max_iter"), criticality=r.get("criticality", True),
+                          locate_tol=r.get("locate_tol"))
 
 
 def save_route(study, routes: dict, table: pd.DataFrame, sde: bool = False) -> None:
