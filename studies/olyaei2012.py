@@ -81,14 +81,15 @@ SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM,
 # 0.28 mm after 100 revolutions (unstable, multiplier -1.28; tests/test_continuation.py) followed up
 # in the clearance by natural steps over the sweep's values 0.2814 and 0.3157 mm and three values
 # between them, with the period doubling located to 2e-8 m (0.286132 mm, where the sweep's sections
-# turn from period 2 to period 1; its criticality not decided: the period-2 search on both sides
-# is the costly part). The orbit is one of a continuum (the contact memory): the doubling value
-# depends on the history by about 0.4 µm (docs/orbits.md). Cost: 11 CPU s (time.process_time);
+# turn from period 2 to period 1) and its criticality decided (supercritical: the period-2 orbit is
+# stable at 0.285858 mm, where the period-1 orbit is unstable). The orbit is one of a continuum (the
+# contact memory): the doubling value depends on the history by about 0.4 µm (docs/orbits.md).
+# Cost (time.process_time): 19 CPU s, 11 s without the criticality;
 # the same route over the sweep's values from 0.224 to 0.5 mm did not finish in 400 s (wall, at a
 # load of 7 on 2 cores), so the branch is followed around the doubling only.
 FULL["route_clearance"] = dict(
     param="joints.B.clearance", start=0.28e-3, chaotic=None, max_period=0, transient=100,
-    rtol=1e-10, method="natural", criticality=False, locate_tol=2e-8,
+    rtol=1e-10, method="natural", criticality=True, locate_tol=2e-8,
     values=sorted([c for c in FULL["clearances"] if 0.28e-3 <= c <= 0.32e-3]
                   + [0.2835e-3, 0.287e-3, 0.29e-3]))
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
