@@ -79,6 +79,21 @@ QUICK = dict(rtol=1e-7, transient_revs=10, revs=12, lyap_revs=10, lyap_rtol=1e-1
                         transient=10, values=[0.09, 0.1], rtol=1e-8, method="natural"))
 SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM, SPEED0],
              clearances=[0.05e-3], frictions=[0.0], speeds_low_mu=[SPEED0], case_transient=2, case_revs=6, case_lyap_revs=4)
+# the clearance sweep's route (full mode): the permanent-contact period-1 orbit reached from c =
+# 0.28 mm after 100 revolutions (unstable, multiplier -1.28; tests/test_continuation.py) followed up
+# in the clearance by natural steps over the sweep's values 0.2814 and 0.3157 mm and three values
+# between them, with the period doubling located to 2e-8 m (0.286132 mm, where the sweep's sections
+# turn from period 2 to period 1) and its criticality decided (supercritical: the period-2 orbit is
+# stable at 0.285858 mm, where the period-1 orbit is unstable). The orbit is one of a continuum (the
+# contact memory): the doubling value depends on the history by about 0.4 µm (docs/orbits.md).
+# Cost (time.process_time): 19 CPU s, 11 s without the criticality;
+# the same route over the sweep's values from 0.224 to 0.5 mm did not finish in 400 s (wall, at a
+# load of 7 on 2 cores), so the branch is followed around the doubling only.
+FULL["route_clearance"] = dict(
+    param="joints.B.clearance", start=0.28e-3, chaotic=None, max_period=0, transient=100,
+    rtol=1e-10, method="natural", criticality=True, locate_tol=2e-8,
+    values=sorted([c for c in FULL["clearances"] if 0.28e-3 <= c <= 0.32e-3]
+                  + [0.2835e-3, 0.287e-3, 0.29e-3]))
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",
                "smoke": "SMOKE MODE (test only): a handful of revolutions"}
 
@@ -871,12 +886,12 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     summary = summary_table(points)
     states = showcase_states(points, st, walls)
     tolcheck = _timed(walls, "tolerance check", tolerance_check, points, st)
-    route = run_routes(study, st, sweeps, points)   # the friction sweep's period-1 orbit continued
-    walls["route to chaos"] = route["route"]["wall_s"]
+    route = run_routes(study, st, sweeps, points)   # the period-1 orbits continued (ROUTE_SWEEPS)
+    walls["route to chaos"] = sum(r["wall_s"] for r in route["routes"].values())
     total_wall = study.elapsed()
     _provenance(study, base, sweeps, summary, states, tolcheck, walls, total_wall)
     stacked = _save(study, sweeps, points, summary, tolcheck, states, cen)
-    save_route(study, {"friction": route["route"]}, route["table"], sde())
+    save_route(study, route["routes"], route["table"], sde())
     _report(study, base, sweeps, points, summary, states, tolcheck, walls, stacked, total_wall, route,
             cen)
     return study.pdf
@@ -891,19 +906,30 @@ ROUTE_SYMBOLS = {"speed": ("ω", False), "clearance": ("c", True), "friction": (
                  "speed_mu0.05": ("ω", False)}
 
 
+# the sweeps whose period-1 orbit is continued: sweep -> the settings key of its route (the others'
+# rows come from the brute force alone)
+ROUTE_SWEEPS = {"friction": "route", "clearance": "route_clearance"}
+
+
 def run_routes(study, st, sweeps, points) -> dict:
-    """The route to chaos of every sweep (nld.analysis.route): the period-1 orbit of the friction
-    sweep continued over its range (st["route"]) and checked against the brute-force section at
-    each sweep value it spans (to ROUTE_TOL x C0); the route rows of every sweep (the others from
-    the brute force alone). Returns {"route", "agree", "table"}."""
+    """The route to chaos of every sweep (nld.analysis.route): the period-1 orbit of each sweep of
+    ROUTE_SWEEPS whose settings key is in ``st`` (st["route"]: friction, st["route_clearance"]:
+    clearance) continued over its values and checked against the brute-force section at each sweep
+    value it spans (to ROUTE_TOL x the route's start clearance: C0, or its start in the clearance
+    sweep); the route rows of every sweep (the others from the brute force alone). Returns
+    {"routes": {sweep: route}, "agrees": {sweep: agreement}, "table"}."""
     from nld.analysis.route import agreement, route_table, run_route
-    route = run_route(study, SCENE, st["route"], observables=["B.ex", "B.ey"])
-    agree = agreement(route, sweeps["friction"], ["B.ex", "B.ey"], C0, tol=ROUTE_TOL)
+    routes, agrees = {}, {}
+    for name, key in ROUTE_SWEEPS.items():
+        if st.get(key):
+            routes[name] = run_route(study, SCENE, st[key], observables=["B.ex", "B.ey"])
+            scale = st[key]["start"] if name == "clearance" else C0
+            agrees[name] = agreement(routes[name], sweeps[name], ["B.ex", "B.ey"], scale,
+                                     tol=ROUTE_TOL)
     table = pd.concat([route_table(name, SWEEPS[name][0], points[name], period_col="period_c",
-                                   route=route if name == "friction" else None,
-                                   agree=agree if name == "friction" else None)
+                                   route=routes.get(name), agree=agrees.get(name))
                        for name in SWEEPS], ignore_index=True)
-    return {"route": route, "agree": agree, "table": table}
+    return {"routes": routes, "agrees": agrees, "table": table}
 
 
 def load_base():
@@ -1054,12 +1080,11 @@ def _report(study, base, sweeps, points, summary, states, tolcheck, walls, stack
                 _param, label, pscale, punit, _log = SWEEPS[name]
                 symbol, logx = ROUTE_SYMBOLS[name]
                 tab = route["table"]
-                cont = name == "friction"
-                route_page(rep, route["route"] if cont else None, sweeps[name], points[name],
+                route_page(rep, route["routes"].get(name), sweeps[name], points[name],
                            tab[tab["sweep"] == name], "B.ex", label=f"{label} ({FIXED[name]})",
                            symbol=symbol, scale=1e3, unit="mm", param_scale=pscale,
                            param_unit="" if punit == "−" else punit, logx=logx,
-                           agree=route["agree"] if cont else None)
+                           agree=route["agrees"].get(name))
         tc = _with_check(tolcheck)
         tc.insert(4, "unc_with_check_per_rev", tc.pop("unc_with_check_per_rev"))
         tc["value"] = [_fmt_value(n, v) for n, v in zip(tc["sweep"], tc["value"])]

@@ -110,18 +110,41 @@ ANALYSIS_SMOKE = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=0,
 SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # the route to chaos (nld.analysis.route, docs/route.md): the period-1 orbit at r1 = r2 = start
 # (below the clearance sweep, where the motion is periodic: 16 contact onsets per revolution, max
-# |mu| 0.018) continued in both clearances together (the clearance sweep moves them together),
-# Newton from the previous orbit and, where that fails, from a run of `transient` revolutions; each
-# change of stability or onset count located by `bisect` bisections. Between 3.5 and 3.75 µm the
-# onsets change (11 + 8 -> 12 + 6) and the orbit turns unstable (mu +24.8): the first transition.
-# Cost: about 190 CPU s with two bisections (docs/route.md), so one in full mode. The points ROUTE_CLEARANCES
-# (below the committed 10 µm) are added to the clearance sweep: λ1 on each side of the route.
+# |mu| 0.018) continued in both clearances together (the clearance sweep moves them together).
+# guess "run": at each value Newton from a run of `transient` revolutions first (Newton from the
+# 3 µm orbit stalls at 3.5 µm across the contact change at about 3.1 µm: 36 CPU s lost), the
+# previous orbit where that fails; each Newton at most max_iter steps (a converging one takes 1-3;
+# a stalling one ran 6-9 steps of about 4 CPU s each). bisect 0: the transitions are bracketed by
+# the values themselves (the contact change between 3 and 3.5 µm; the loss of the orbit between
+# 3.5 and 3.75 µm, where Newton fails from both guesses: the motion is chaotic there). Measured
+# (time.process_time, this machine): route 110 CPU s with guess "previous", bisect 0 and no
+# iteration limit (of which 85 s in the three failed solves); with two bisections 186 s.
+# Time per phase of the full mode (CPU s, time.process_time, docs/route.md): the cases 22 s wall on
+# 2 workers; the 14 committed sweep points 9.7 CPU min in all (stop 27); the four route points
+# 19 + 19 + 53 + 18 s (92 s each before ROUTE_POINT); the route 70 s and the 5 µm orbit check 13 s
+# (before: 110 - 186 s), after the sweep in the main process.
 ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
-                  max_period=0, transient=10, rtol=1e-8, bisect=1,
+                  max_period=0, transient=10, rtol=1e-8, bisect=0, guess="run", max_iter=5,
                   values=[3e-6, 3.5e-6, 3.75e-6])
-ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6], bisect=0)      # the start orbit only (test time)
+# quick: the start orbit only, at the quick analysis' rtol 1e-7 (test time: 9.0 CPU s against
+# 14.2 at 1e-8; max |mu| 0.01788 ± 8e-5 against 0.01790 ± 4e-5)
+ROUTE_QUICK = dict(ROUTE_FULL, values=[3e-6], bisect=0, rtol=1e-7)
 ROUTE_SMOKE = None
+# The points ROUTE_CLEARANCES (below the committed 10 µm) are added to the clearance sweep: λ1 on
+# each side of the route. At them (ROUTE_POINT) λ1 runs over 30 revolutions (the motion is on a
+# strongly contracting orbit or chaotic at once) with the tangent vectors in the error control:
+# at rtol 1e-8 with the state-only control the exponent of the 3 µm orbit is -4.044 against
+# ln(max |mu|) = -4.023 from Newton (-4.0225 with the tangent controlled, -4.0234 at rtol 1e-9):
+# the bias of the state-only control, far below the chaotic points' uncertainty, but 2000x the
+# uncertainty of a periodic orbit's exponent (1e-5), so that the verdict check called the point
+# 'not established'. A regular point there is checked by the orbit itself (orbit_checks: the
+# Newton orbit that lies on the section, its exponent ln(max |mu|) / p against the run's) instead
+# of a second tangent run at rtol_check over 200 revolutions (63 CPU s at 3 µm); a point with
+# another verdict gets the tangent check over check_span x 30 revolutions. Measured at 3 µm
+# (process_time): 92 CPU s per point before (section 7, λ1 22, check 63), about 20 s now.
 ROUTE_CLEARANCES = {"full": [3e-6, 3.5e-6, 3.75e-6, 5e-6], "quick": [3e-6], "smoke": []}
+ROUTE_POINT = {"full": dict(lyap_revs=30, tangent_err=True), "quick": {}, "smoke": {}}
+ORBIT_CHECK_PENDING = "orbit (pending)"
 # the agreement of the branch with the brute-force section: within ROUTE_TOL x the start clearance
 ROUTE_TOL = 1e-3
 # a verdict "chaotic" needs a positive exponent AND a section long enough to show it: with fewer
@@ -333,7 +356,13 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
     from nld.analysis.poincare import stroboscopic
     from nld.systems.core import SceneSystem
     ov = _sweep_overrides(sweep, v)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
+    # a point the route to chaos added (ROUTE_POINT): its own exponent settings, and a regular
+    # verdict checked by the orbit (Newton's multiplier, orbit_checks) instead of a second run
+    route_point = sweep == "clearance" and float(v) in an.get("route_points", ())
+    if route_point:
+        an = {**an, **an.get("route_point", {})}
+    check_method = ""
     lam = unc = per = uper = float("nan")
     est = {}
     check = None
@@ -355,7 +384,12 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
             est = dict(getattr(r, "settings", {}) or {})
             est.setdefault("method", getattr(r, "method", None))
             n_sec = int((sec.table["rev"] >= 0).sum())
-            if an.get("rtol_check") and verdict(status, per, uper, n_sec) not in (UNCERTAIN, FAILED):
+            v_main = verdict(status, per, uper, n_sec)
+            if an.get("rtol_check") and route_point and v_main == REGULAR:
+                check_method = ORBIT_CHECK_PENDING
+            elif an.get("rtol_check") and v_main not in (UNCERTAIN, FAILED):
+                check_method = (f"tangent, rtol {an['rtol_check']:g} over "
+                                f"{an['check_span'] * an['lyap_revs']:g} rev")
                 # the verdict check: the same motion (from the same section end) at another
                 # tolerance over another averaging span; a failed check keeps the main result
                 try:
@@ -383,7 +417,8 @@ def analysis_point(sweep: str, i: int, v: float, an: dict, scene_name: str = SCE
            "section_points": n_pts, "status": status, "message": msg,
            "estimator": est.get("method"),
            "estimator_settings": json.dumps(est, default=json_default, sort_keys=True),
-           "wall_s": time.perf_counter() - t0}
+           "check_method": check_method, "wall_s": time.perf_counter() - t0,
+           "cpu_s": time.process_time() - c0}
     if check is not None:
         from nld.study import checked_verdict
         row["lambda_check_per_rev"], row["lambda_check_unc_per_rev"], chk_msg = check
@@ -744,6 +779,25 @@ def _fig_spectra(rep, spectra):
                             "peak; the panels of a row share their y-range. The load cycle puts power on the "
                             "low crank orders; the impacts in the clearances add a broadband part up to "
                             "hundreds of orders.")
+
+
+def _route_point_note(pts, an) -> str:
+    """The exponent table's note on the points the route added (ROUTE_POINT): their averaging
+    span, error control and orbit check, with each orbit check's outcome."""
+    rp = an.get("route_points") or []
+    if not rp:
+        return ""
+    st = an.get("route_point") or {}
+    cm = pts["check_method"].astype(str) if "check_method" in pts.columns else pd.Series("", index=pts.index)
+    chk = pts[cm.str.startswith("period-") | (cm == "orbit: none")]
+    return (f"At the route's points r = {', '.join(f'{v * 1e6:g}' for v in rp)} µm λ1 runs over "
+            f"{st.get('lyap_revs', an['lyap_revs'])} revolutions"
+            + (" with the tangent vectors in the error control" if st.get("tangent_err") else "")
+            + "; a regular point there is checked by its periodic orbit instead of a second run: "
+            "the orbit found by Newton (the branch's, or from a run) must be stable and on the "
+            "section, and λ1 check is its exponent ln(max |mu|) / p (docs/route.md)"
+            + ("" if not len(chk) else ": " + "; ".join(
+                f"{r['value'] * 1e6:g} µm: {r['message']}" for _, r in chk.iterrows())) + ". ")
 
 
 def _analysis_text(pts, spectra, an, mode, period=None):
@@ -1214,7 +1268,8 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
         rep.text_page("Chaos analysis: sections, exponents, bifurcation, spectra",
                       _analysis_text(pts, spectra, an, mode, period))
         shown_pts = pts.drop(columns=["lambda", "lambda_uncertainty", "message", "estimator",
-                                      "estimator_settings"] + (["wall_s"] if _sde() else []))
+                                      "estimator_settings"] + (["wall_s"] if _sde() else [])
+                             + [c for c in ("check_method", "cpu_s") if c in pts.columns])
         shown_pts = shown_pts.rename(columns={"lambda_per_rev": "λ1", "lambda_unc_per_rev": "± unc",
                                               "section_points": "points", "wall_s": "wall",
                                               "verdict_main": "verdict 1", "lambda_check_per_rev": "λ1 check",
@@ -1230,7 +1285,8 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
                             f"section end at rtol {an['rtol_check']:g} over {an['check_span']:g}x the span (λ1 check; "
                             "uncertain points are not run again, blank); verdict: verdict 1 where verdict 2 "
                             "is the same and the two exponents agree within 3x their combined uncertainty, "
-                            "else 'not established'. " if an.get("rtol_check") else
+                            "else 'not established'. " + _route_point_note(pts, an)
+                            if an.get("rtol_check") else
                             "verdict: verdict 1, not checked at another tolerance in this mode. ")
                          + f"{estimator_line(pts, period)}. Stored in {STEM}_chaos.csv (lambda in 1/s as well); the "
                          f"section points in {STEM}_sections.parquet."],
@@ -1296,15 +1352,26 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
 
 def analysis_and_route(study, an: dict, workers: int):
     """The chaos analysis (run_analysis) with ROUTE_CLEARANCES[mode] added to the clearance sweep
-    (``an`` is updated), then the route to chaos (run_routes). Returns (sections, points, route)."""
+    (``an`` is updated; at those points ROUTE_POINT[mode]), then the route to chaos (run_routes),
+    the orbit checks of the added regular points (orbit_checks) and the route rows (route_rows).
+    Returns (sections, points, route)."""
     an["clearances"] = sorted(set(an["clearances"]) | set(ROUTE_CLEARANCES[study.mode]))
+    an["route_points"] = list(ROUTE_CLEARANCES[study.mode])
+    an["route_point"] = dict(ROUTE_POINT[study.mode])
     secs, pts = run_analysis(an, workers=workers)
-    return secs, pts, run_routes(study, secs, pts)
+    t0 = time.perf_counter()
+    route = run_routes(study, secs, pts)
+    pts = orbit_checks(study, route, secs, pts)
+    route_rows(route, secs, pts)
+    route["wall_s"] = time.perf_counter() - t0
+    return secs, pts, route
 
 
 def section_periods(secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
     """pts with ``period``: the period of each point's section (A and B eccentricities repeating
-    to ROUTE_TOL x the smaller clearance of the point; 0 = none up to 16)."""
+    to ROUTE_TOL x the smaller clearance of the point over the section's last half, the first half
+    being left to the transient: at 5 µm the orbit contracts by only 0.64 per revolution, so the
+    first 15 of the 50 points are still 1e-3 x the clearance off it; 0 = none up to 16)."""
     from nld.analysis.poincare import period_of
     out = pts.copy()
     per = []
@@ -1313,31 +1380,108 @@ def section_periods(secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
         c = float(r["value"]) if r["sweep"] == "clearance" else 0.03e-3
         ok = r["status"] == "ok" and len(g) >= 2
         per.append(period_of(g[SECTION_OBS].to_numpy(float), tol=ROUTE_TOL, scale=c,
-                             n_max=max(1, min(16, len(g) // 2))) if ok else 0)
+                             n_max=max(1, min(16, len(g) // 2)),
+                             window=len(g) // 2 if len(g) >= 8 else None) if ok else 0)
     out["period"] = np.array(per, dtype=int)
     return out
 
 
 def run_routes(study, secs, pts) -> dict:
-    """The route to chaos of both sweeps (nld.analysis.route): the period-1 orbit at r1 = r2 =
-    ROUTE_*["start"] continued in both clearances together and checked against the brute-force
-    section at each clearance of the sweep it spans; the route rows of the clearance sweep (with the
-    branch) and of the friction sweep (brute force alone). Returns {"route", "agree", "table"}."""
-    from nld.analysis.route import agreement, route_table, run_route
+    """The route to chaos of the clearance sweep (nld.analysis.route): the period-1 orbit at r1 =
+    r2 = ROUTE_*["start"] continued in both clearances together and checked against the
+    brute-force section at each clearance of the sweep it spans. Returns {"route", "agree",
+    "settings"} (route_rows adds the rows)."""
+    from nld.analysis.route import agreement, run_route
     r = {"full": ROUTE_FULL, "quick": ROUTE_QUICK, "smoke": ROUTE_SMOKE}[study.mode]
     route = run_route(study, SCENE, r, observables=SECTION_OBS) if r else None
-    clr = section_periods(secs, pts[pts["sweep"] == "clearance"])
-    fr = section_periods(secs, pts[pts["sweep"] == "friction"])
     agree = None
     if route is not None:
         agree = agreement(route, secs[secs["sweep"] == "clearance"], SECTION_OBS, r["start"],
                           tol=ROUTE_TOL)
-    table = pd.concat([route_table("clearance", "joints.A.clearance,joints.B.clearance", clr,
-                                   period_col="period", route=route, agree=agree),
-                       route_table("friction", "joints.A.friction.mu,joints.B.friction.mu", fr,
-                                   period_col="period")], ignore_index=True)
-    return {"route": route, "agree": agree, "table": table, "points": {"clearance": clr,
-                                                                        "friction": fr}}
+    return {"route": route, "agree": agree, "settings": r}
+
+
+def orbit_checks(study, routes: dict, secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
+    """The verdict check of the route's regular points (check_method ORBIT_CHECK_PENDING, set by
+    analysis_point): the period-p orbit at that clearance (p the section's period; the branch's
+    orbit where the branch reaches the value, else Newton from a run there:
+    nld.analysis.route.orbits_at) must be stable and lie on the brute-force section within
+    ROUTE_TOL x the clearance (nld.analysis.route.agreement), and its exponent ln(max |mu|) / p
+    (nld.analysis.route.orbit_exponent) must agree with the run's (nld.study.checked_verdict: the
+    same word, values within 3x the summed uncertainties); else 'not established' with the reason
+    in ``message``. Returns pts updated; routes["orbit_checks"]: one row per checked point."""
+    from nld.analysis.route import agreement, orbit_exponent, orbits_at
+    from nld.study import checked_verdict
+    pts = pts.copy()
+    if "check_method" not in pts.columns:
+        return pts
+    pend = list(pts.index[(pts["sweep"] == "clearance") & (pts["check_method"] == ORBIT_CHECK_PENDING)])
+    routes["orbit_checks"] = rows = []
+    if not pend:
+        return pts
+    r = routes.get("settings") or ROUTE_FULL
+    route = routes.get("route") or {}
+    sc = secs[secs["sweep"] == "clearance"]
+    periods = section_periods(secs, pts.loc[pend])["period"]
+    ag = routes.get("agree")
+    for i in pend:
+        v, p = float(pts.at[i, "value"]), int(periods[i])
+        o, row, why = (route.get("at_values") or {}).get(v), None, ""
+        if o is not None and ag is not None and len(ag) and np.isclose(ag["value"], v).any():
+            row, source = ag[np.isclose(ag["value"], v)].iloc[0], "the branch's orbit"
+        elif p > 0:
+            study.stage(f"route to chaos: the period-{p} orbit at r = {v * 1e6:g} µm (orbit check)")
+            own = orbits_at(SCENE, _mu(0.01), r["param"], [v], period=p, transient=r["transient"],
+                            rtol=r["rtol"], max_iter=r.get("max_iter"), observables=SECTION_OBS)
+            o, source = own["at_values"].get(v), "Newton from a run"
+            why = own["failed"].get(v, "")
+            if o is not None:
+                a = agreement(own, sc, SECTION_OBS, v, tol=ROUTE_TOL)
+                row = a.iloc[0] if len(a) else None
+        else:
+            source, why = "", "the section repeats with no period up to 16"
+        lam_c = unc_c = float("nan")
+        if o is None or row is None:
+            vd, msg = "not established", f"no orbit to check it: {why or 'none found'}"
+        elif row["class"] != "stable" or not row["agrees"]:
+            vd = "not established"
+            msg = (f"the period-{o.period} orbit ({source}) is {row['class']} and "
+                   + ("on" if row["agrees"] else f"not on (distance {row['distance']:.2g} x the "
+                      f"clearance)") + " the section")
+        else:
+            lam_c, unc_c = orbit_exponent(o)
+            chk = verdict("ok", lam_c, unc_c, int(pts.at[i, "section_points"]))
+            vd = checked_verdict(pts.at[i, "verdict_main"], chk, lam=pts.at[i, "lambda_per_rev"],
+                                 unc=pts.at[i, "lambda_unc_per_rev"], lam_check=lam_c,
+                                 unc_check=unc_c)
+            pts.at[i, "verdict_check"] = chk
+            msg = (f"checked by the period-{o.period} orbit ({source}, on the section within "
+                   f"{row['distance']:.2g} x the clearance): ln(max |mu|) / {o.period} = "
+                   f"{lam_c:.4f} ± {unc_c:.2g} per revolution")
+        pts.at[i, "lambda_check_per_rev"], pts.at[i, "lambda_check_unc_per_rev"] = lam_c, unc_c
+        pts.at[i, "verdict"] = vd
+        pts.at[i, "check_method"] = (f"period-{o.period} orbit (Newton, rtol {r['rtol']:g}): "
+                                     f"ln(max |mu|) / {o.period}" if o is not None else "orbit: none")
+        pts.at[i, "message"] = msg
+        rows.append({"value": v, "period": p, "source": source, "verdict": vd,
+                     "lambda_orbit": lam_c, "lambda_orbit_unc": unc_c, "message": msg})
+    return pts
+
+
+def route_rows(routes: dict, secs: pd.DataFrame, pts: pd.DataFrame) -> dict:
+    """The route rows of both sweeps (nld.analysis.route.route_table): the clearance sweep with
+    the branch, the friction sweep from the brute force alone. Adds ``table`` and ``points`` (each
+    sweep's points with their section period) to ``routes`` and returns it."""
+    from nld.analysis.route import route_table
+    clr = section_periods(secs, pts[pts["sweep"] == "clearance"])
+    fr = section_periods(secs, pts[pts["sweep"] == "friction"])
+    routes["table"] = pd.concat([
+        route_table("clearance", "joints.A.clearance,joints.B.clearance", clr, period_col="period",
+                    route=routes.get("route"), agree=routes.get("agree")),
+        route_table("friction", "joints.A.friction.mu,joints.B.friction.mu", fr,
+                    period_col="period")], ignore_index=True)
+    routes["points"] = {"clearance": clr, "friction": fr}
+    return routes
 
 
 if __name__ == "__main__":

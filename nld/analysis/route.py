@@ -44,7 +44,8 @@ from nld.analysis.continuation import orbit_stability
 
 __all__ = ["route_to_chaos", "linked_branch", "orbit_stability", "branch_ends", "agreement",
            "sweep_regimes", "route_table", "route_sentence", "route_figure", "orbit_rows",
-           "route_record", "route_tables", "ROUTE_COLUMNS", "TRANSITIONS", "REGIMES"]
+           "route_record", "route_tables", "orbits_at", "orbit_exponent", "ROUTE_COLUMNS",
+           "TRANSITIONS", "REGIMES"]
 
 REGIMES = ("period {p} stable", "period {p} unstable", "period {p} neutral continuum",
            "period {p}", "chaotic", "coexisting", "regular", "not established")
@@ -116,21 +117,26 @@ def branch_ends(br) -> list[dict]:
     return out
 
 
-def _continue(system, orbit, param, values, *, method, max_points, locate_tol):
+def _continue(system, orbit, param, values, *, method, max_points, locate_tol,
+              criticality: bool = True):
     """continue_orbit over the whole range of ``values`` (pseudo-arclength both ways), falling back
-    to natural continuation over ``values`` when arclength is not wanted or fails at once."""
+    to natural continuation over ``values`` when arclength is not wanted or fails at once;
+    ``criticality``: decide super-/subcritical at each located bifurcation (a search for the
+    bifurcating orbit on both sides: the costliest part of a short branch)."""
     from nld.analysis.continuation import continue_orbit
     from nld.errors import SolveError
     lo, hi = float(min(values)), float(max(values))
     if method == "arclength":
         try:
             br = continue_orbit(system, orbit, param, range=(lo, hi), method="arclength",
-                                max_points=max_points, locate_tol=locate_tol)
+                                max_points=max_points, locate_tol=locate_tol,
+                                criticality=criticality)
             if len(br.values) >= 2:
                 return br
         except SolveError:
             pass
-    return continue_orbit(system, orbit, param, values, method="natural", locate_tol=locate_tol)
+    return continue_orbit(system, orbit, param, values, method="natural", locate_tol=locate_tol,
+                          criticality=criticality)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -173,7 +179,8 @@ def _classify_step(oa, ob) -> tuple[str | None, str]:
 
 
 def linked_branch(scene, overrides, param, values, orbit, *, start: float, rtol, bisect: int = 3,
-                  transient: int = 10, guess: str = "previous", progress=None):
+                  transient: int = 10, guess: str = "previous", max_iter: int | None = None,
+                  progress=None):
     """Follow ``orbit`` (the period-1 orbit at ``start``) over ``values``, outwards from ``start``
     both ways, with every key of ``param`` (comma-separated scene keys, e.g. "joints.A.clearance,
     joints.B.clearance") set to the value: natural continuation (Newton from the previous orbit).
@@ -186,7 +193,11 @@ def linked_branch(scene, overrides, param, values, orbit, *, start: float, rtol,
     orbit where that fails (for a non-smooth map whose Newton basins are narrower than the steps: an
     orbit per value, joined where the onset counts and stability agree). Between two points whose stability or onset count differ, ``bisect``
     bisections in the value (Newton from the orbit on the start's side) locate the change: value ±
-    half the final bracket. Returns a ``nld.analysis.continuation.Branch`` (values increasing;
+    half the final bracket. ``max_iter``: Newton's iteration limit per solve (None: the
+    orbits module's default; a solve from a good guess converges in 1-3 steps, and one that has not
+    converged in a few is stalling: on the excavator each step is a tangent revolution, and the
+    failed solves across a contact change were most of the route's cost, docs/route.md). Returns a
+    ``nld.analysis.continuation.Branch`` (values increasing;
     ``settings["ends"]``: how each end ends, as :func:`branch_ends` gives them)."""
     from nld.analysis.continuation import Bifurcation, Branch
     from nld.analysis.orbits import periodic_orbit
@@ -197,15 +208,17 @@ def linked_branch(scene, overrides, param, values, orbit, *, start: float, rtol,
                 "(keys set together), joined where onsets and stability agree"),
                 "period": orbit.period, "rtol": rtol, "guess": guess,
                 "values": [float(v) for v in values], "bisect": bisect, "transient": transient,
-                "ends": []}
+                "max_iter": max_iter, "ends": []}
+    it = {} if max_iter is None else {"max_iter": int(max_iter)}
 
     def solve(v, like=None):
         S = _linked_system(scene, overrides, keys, v)
         try:
             if like is None:
-                o = periodic_orbit(S, orbit.period, transient=transient, rtol=rtol)
+                o = periodic_orbit(S, orbit.period, transient=transient, rtol=rtol, **it)
             else:
-                o = periodic_orbit(S, like.period, guess=like.points[0], z=like.z[0], rtol=rtol)
+                o = periodic_orbit(S, like.period, guess=like.points[0], z=like.z[0], rtol=rtol,
+                                   **it)
         except SolveError as e:
             return None, str(e)
         return (o, "") if o.converged else (None, o.message)
@@ -286,12 +299,15 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                    seeds_per_period: int = 4, locate_tol: float | None = None,
                    method: str = "arclength", max_points: int = 60, polish: bool = True,
                    observables=(), guess: str = "previous", bisect: int = 3,
+                   max_iter: int | None = None, criticality: bool = True,
                    progress=None) -> dict:
     """The period-1 orbit of ``scene`` at ``param`` = ``start`` (Newton shooting from the state
     after ``transient`` revolutions), continued over the range of ``values`` (the sweep's values;
     ``method`` "arclength": pseudo-arclength both ways from ``start``, at most ``max_points``
     points; "natural": over ``values``; ``param`` with several comma-separated keys: the keys set
-    together, :func:`linked_branch` from ``start`` upwards over ``values``), its multipliers and
+    together, :func:`linked_branch` from ``start`` upwards over ``values``, with ``guess``,
+    ``bisect`` and ``max_iter``; ``criticality`` False: super-/subcritical not decided, the
+    located bifurcations' criticality "undetermined"), its multipliers and
     the bifurcations located (``locate_tol``, default 1e-3 of the smallest step of ``values``); with
     ``polish`` the orbit again at each of ``values`` inside the branch's span (Newton from the
     nearest branch point: ``at_values``, for :func:`agreement`); ``observables``: table columns
@@ -317,7 +333,8 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
            "settings": dict(rtol=rtol, transient_revs=transient, start=start, chaotic=chaotic,
                             max_period=max_period, seeds_per_period=seeds_per_period,
                             locate_tol=ltol, values=values, method="linked" if linked else method,
-                            max_points=max_points)}
+                            max_points=max_points, guess=guess, bisect=bisect,
+                            max_iter=max_iter, criticality=criticality)}
     keys = _keys(param)
     S = _linked_system(scene, overrides, keys, start) if linked else \
         SceneSystem(scene, list(overrides) + [f"{param}={start!r}"])
@@ -334,10 +351,11 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
     else:
         if linked:
             br = linked_branch(scene, overrides, param, grid, o, start=start, rtol=rtol,
-                               transient=transient, guess=guess, bisect=bisect)
+                               transient=transient, guess=guess, bisect=bisect,
+                               max_iter=max_iter)
         else:
             br = _continue(S, o, param, grid, method=method, max_points=max_points,
-                           locate_tol=ltol)
+                           locate_tol=ltol, criticality=criticality)
         out["branch"] = br
         out["ends"] = branch_ends(br)
         joint = S.kernel.topo.clearance[0] if S.kernel.topo.clearance else None
@@ -392,6 +410,48 @@ def _polish(scene, overrides, keys, br, values, rtol) -> dict:
         if o.converged:
             out[v] = o
     return out
+
+
+def orbits_at(scene, overrides, param, values, *, period: int = 1, transient: int = 10,
+              rtol: float = 1e-10, max_iter: int | None = None, observables=()) -> dict:
+    """The period-``period`` orbit at each of ``values`` found on its own (Newton from the state
+    after ``transient`` revolutions of a run at that value; ``param`` one key or several set
+    together), for points no branch reaches (e.g. a periodic window beyond the branch's end).
+    Returns {"at_values": {value: converged orbit}, "section": {value: {observable: values at the
+    orbit's points}}, "failed": {value: Newton's message}}: the form :func:`agreement` reads."""
+    from nld.analysis.orbits import periodic_orbit
+    from nld.errors import SolveError
+    keys = _keys(param)
+    out = {"at_values": {}, "section": {}, "failed": {}}
+    it = {} if max_iter is None else {"max_iter": int(max_iter)}
+    for v in values:
+        v = float(v)
+        try:
+            o = periodic_orbit(_linked_system(scene, overrides, keys, v), period,
+                               transient=transient, rtol=rtol, **it)
+        except SolveError as e:
+            out["failed"][v] = str(e)
+            continue
+        if not o.converged:
+            out["failed"][v] = o.message
+            continue
+        out["at_values"][v] = o
+        if observables:
+            out["section"][v] = _section_of(o, observables)
+    return out
+
+
+def orbit_exponent(o) -> tuple[float, float]:
+    """The largest Lyapunov exponent of a periodic orbit from its multipliers, per iteration of
+    the map it is an orbit of (per crank revolution for a one-revolution stroboscopic map):
+    ln(max |mu|) / period, the contact memory's neutral multiplier left out (Floquet: the exponents
+    of a periodic orbit are the logarithms of its multipliers over the period; Parker & Chua 1989
+    ch. 2), and its uncertainty from the multiplier's: u(max |mu|) / (max |mu| period)."""
+    crit = _critical_multipliers(o)
+    m = float(np.max(np.abs(crit))) if crit.size else float(o.max_abs_multiplier)
+    if not (m > 0 and math.isfinite(m)):
+        return float("nan"), float("nan")
+    return math.log(m) / o.period, multiplier_uncertainty(o) / (m * o.period)
 
 
 def _section_of(orbit, observables) -> dict:
@@ -892,14 +952,17 @@ def route_tables(route: dict) -> dict:
 
 def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
     """:func:`route_to_chaos` with a study's route settings ``r`` (param, values, start, chaotic,
-    transient, max_period, optional rtol, method, max_points) and a progress stage."""
+    transient, max_period, optional rtol, method, max_points, guess, bisect, max_iter) and a
+    progress stage."""
     study.stage(f"route to chaos: the period-1 orbit in {r['param']}")
     return route_to_chaos(scene, list(overrides), r["param"], r["values"], start=r["start"],
                           chaotic=r.get("chaotic"), transient=r["transient"],
                           max_period=r.get("max_period", 0), rtol=r.get("rtol", 1e-10),
                           method=r.get("method", "arclength"),
                           max_points=r.get("max_points", 60), observables=observables,
-                          guess=r.get("guess", "previous"), bisect=r.get("bisect", 3))
+                          guess=r.get("guess", "previous"), bisect=r.get("bisect", 3),
+                          max_iter=r.get("max_iter"), criticality=r.get("criticality", True),
+                          locate_tol=r.get("locate_tol"))
 
 
 def save_route(study, routes: dict, table: pd.DataFrame, sde: bool = False) -> None:
