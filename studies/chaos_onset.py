@@ -510,7 +510,7 @@ def explain(df: pd.DataFrame, res: dict) -> pd.DataFrame:
         for i in range(len(xs) - 1):
             a, b = ver[i], ver[i + 1]
             curves_here = [k for k, cs in cross.items() if any(xs[i] < x <= xs[i + 1] for x in cs)]
-            change = {a, b} == {"regular", "chaotic"}
+            change = {a, b} == {REGULAR, CHAOTIC}
             if not change and not curves_here:
                 continue
             rows.append({"mu": float(y), "c_left_mm": xs[i] * 1e3, "c_right_mm": xs[i + 1] * 1e3,
@@ -598,6 +598,18 @@ def _fig_curves(rep, df, st, res):
 # ----------------------------------------------------------------------------------------- main
 
 
+def run_curves(cs: dict, values_y) -> dict:
+    """:func:`follow_curves`, or (when it fails) no curve and the failure said on the page (the map
+    is kept)."""
+    from nld.errors import InputError, SolveError
+    t_c = time.perf_counter()
+    try:
+        return follow_curves(cs, values_y)
+    except (SolveError, InputError) as e:
+        return {"curves": [], "branch": None, "notes": [f"the curves failed: {e}"],
+                "walls": {"orbit_and_branch": time.perf_counter() - t_c}}
+
+
 def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     from nld.study import Study
     study = Study(globals(), quick, out_dir)
@@ -606,15 +618,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports")) -> Path:
     for name in MAPS:
         maps[name], walls[name] = run_map(name, st_all[name], workers, study.work_dir(name))
     cs = st_all.get("curves")
-    res = None
-    if cs:
-        from nld.errors import InputError, SolveError
-        t_c = time.perf_counter()
-        try:
-            res = follow_curves(cs, st_all["slider_crank"]["values_y"])
-        except (SolveError, InputError) as e:      # said on the page, the map is kept
-            res = {"curves": [], "branch": None, "notes": [f"the curves failed: {e}"],
-                   "walls": {"orbit_and_branch": time.perf_counter() - t_c}}
+    res = run_curves(cs, st_all["slider_crank"]["values_y"]) if cs else None
     ctab = curves_table(res) if res is not None else curves_table({"curves": []})
     ex = explain(maps["slider_crank"], res if res is not None else {"curves": []})
     summ = pd.DataFrame([summarise(n, maps[n]) for n in MAPS])

@@ -39,6 +39,7 @@ from nld.errors import InputError, SceneError, SolveError
 from nld.analysis.continuation import (ARCLENGTH_PARAM_UNIT, Bifurcation, Family,
                                        check_values, continue_orbit)
 from nld.analysis.orbits import periodic_orbit
+from nld.analysis.bifurcation_curve import BifurcationCurve, CurveEnd, domain_exits
 
 __all__ = ["continue_grazing", "WIDEN", "MIN_STEP_FRACTION"]
 
@@ -81,7 +82,6 @@ def continue_grazing(system, bif: Bifurcation, param2, range2, *, param, stops=(
     :class:`nld.analysis.codim2.BifurcationCurve` of kind "grazing": tolerance1 the located
     bracket's width, condition and distance the contact side's approach speed. Bad input raises
     InputError before any integration."""
-    from nld.analysis.codim2 import BifurcationCurve, CurveEnd, domain_exits
     if not isinstance(bif, Bifurcation) or bif.kind != "grazing":
         raise InputError("bif: give a grazing Bifurcation from continue_orbit(...).bifurcations")
     o0 = bif.orbit

@@ -33,7 +33,8 @@ SIGPIPE, the status of a program killed by SIGPIPE).
 
 Layout: the only package of nld that knows argparse. ``app`` assembles the parser from one module
 per command (``scenes`` for scenes and show, ``simulate``, ``poincare``, ``bifurcation``,
-``spectrum``, ``chaos_map``, ``lyapunov``, ``orbits`` for orbits and continue, ``attractors``,
+``spectrum``, ``chaos_map``, ``lyapunov``, ``orbits`` for orbits and continue (``codim2`` for
+continue's two-parameter curves, ``--follow``), ``attractors``,
 ``control``, ``hard_cases``, ``study``; each has ``add_parser(sub)`` and ``cmd_*(args)``, and
 calls the library: the workflows live below, e.g. ``nld control`` is
 :func:`nld.analysis.scene_control.control_scene`) and holds :func:`main`; ``args`` holds what they
