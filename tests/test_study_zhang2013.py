@@ -1,4 +1,5 @@
-"""Study zhang2013_excavator (studies/zhang2013_excavator.py) in quick mode: files, pages, table.
+"""Study zhang2013_excavator (studies/zhang2013_excavator.py) in smoke mode (quick mode, the main
+job as a user runs it, under -m slow): files, pages, table.
 
 Quick mode (studies/zhang2013_excavator.py QUICK, ANALYSIS_QUICK): 5 cases x (1 + 5) crank revolutions
 at rtol 1e-6 with the per-revolution peaks located (nld.analysis.extrema), then the chaos analysis: 5 sweep
@@ -17,7 +18,7 @@ import subprocess
 from nld.cli import main
 from nld.output.io import load_table
 from nld.output.report import Report
-from study_harness import ROOT, count_pages, load_study
+from study_harness import MODES, ROOT, count_pages, load_study
 
 
 def _tracked_state():
@@ -32,20 +33,27 @@ def _tracked_state():
     return status, {f: (ROOT / f).stat().st_mtime_ns for f in files if (ROOT / f).exists()}
 
 
-@pytest.fixture(scope="module")
-def quick_run(tmp_path_factory):
-    """The main job as a user runs it, through the command line from a fresh directory:
-    ``nld study zhang2013 --quick`` writes to ./nld-out/ (the default)."""
+@pytest.fixture(scope="module", params=MODES)
+def quick_run(request, tmp_path_factory):
+    """The main job as a user runs it, from a fresh directory: ``nld study zhang2013 --quick``
+    through the command line, writing to ./nld-out/ (the default), under -m slow; in the default
+    run the study's smoke mode (SMOKE, ANALYSIS_SMOKE: no route) into ./nld-out/ of a fresh
+    directory. The module gets MODE, MODE_SETTINGS and MODE_ANALYSIS."""
+    mode = request.param
     study = load_study("zhang2013_excavator.py")
-    cwd = tmp_path_factory.mktemp("zhang2013_cwd")
+    cwd = tmp_path_factory.mktemp(f"zhang2013_cwd_{mode}")
     before = _tracked_state()
     old = os.getcwd()
     os.chdir(cwd)
     try:
-        rc = main(["study", "zhang2013", "--quick", "--quiet"])
+        if mode == "quick":
+            assert main(["study", "zhang2013", "--quick", "--quiet"]) == 0
+        else:
+            study.main(quick=True, smoke=True, out_dir=cwd / "nld-out")
     finally:
         os.chdir(old)
-    assert rc == 0
+    study.MODE, study.MODE_SETTINGS = mode, getattr(study, mode.upper())
+    study.MODE_ANALYSIS = getattr(study, f"ANALYSIS_{mode.upper()}")
     out = cwd / "nld-out"
     return study, out, out / "zhang2013_excavator.pdf", before
 
@@ -72,7 +80,7 @@ def test_no_section_under_the_minimum_is_called_chaotic(quick_run):
     assert (pos["verdict"] == "λ1 > 0, short").all()
     for st in pts.loc[pts["status"] == "ok", "estimator_settings"]:
         d = json.loads(st)
-        assert d["rtol"] == study.ANALYSIS_QUICK["rtol"] and d["total"] > 0 and d["method"]
+        assert d["rtol"] == study.MODE_ANALYSIS["rtol"] and d["total"] > 0 and d["method"]
     assert study.verdict("ok", 2.0, 0.5, 60) == "chaotic"
     assert study.verdict("ok", 2.0, 0.5, 8) == "λ1 > 0, short"
     assert study.verdict("ok", -2.0, 0.5, 8) == "regular"
@@ -85,7 +93,7 @@ def test_quick_writes_pdf_parquet_and_summary(quick_run):
     assert pdf == out / "zhang2013_excavator.pdf" and pdf.is_file()
     data = pdf.read_bytes()
     assert data.startswith(b"%PDF")
-    assert b"quick" in data                         # PDF Keywords carry the mode
+    assert study.MODE.encode() in data              # PDF Keywords carry the mode
     # title page(s) + intro, summary table, peak-location table, maxima figure, 3 discussion pages
     # (trends, figure by figure, why), 3 figures x 2 groups, 2 force pages, the phase plot, the chaos
     # analysis (text, exponent table, sections, 2 bifurcation diagrams, spectra), the route to chaos
@@ -108,8 +116,8 @@ def test_parquet_holds_every_case_with_provenance(quick_run):
     df, prov = load_table(out / "zhang2013_excavator.parquet")
     assert list(df.columns[:2]) == ["case", "steady"]
     assert set(df["case"]) == set(study.CASES) | {"ideal"}
-    assert prov["mode"] == "quick" and prov["scene"] == "excavator"
-    assert prov["rtol"] == study.QUICK["rtol"]
+    assert prov["mode"] == study.MODE and prov["scene"] == "excavator"
+    assert prov["rtol"] == study.MODE_SETTINGS["rtol"]
     assert "git_hash" in prov and "scene_parameters" in prov
     for name in study.CASES:
         assert prov["cases"][name]["success"], prov["cases"][name]["message"]
@@ -117,7 +125,7 @@ def test_parquet_holds_every_case_with_provenance(quick_run):
         assert n == (df["case"] == "ideal").sum()     # same output times as the ideal twin
         assert df.loc[df["case"] == name, "steady"].any()
         # the stored samples: transient + plotted revolutions at samples_per_rev / keep_every
-        q = study.QUICK
+        q = study.MODE_SETTINGS
         assert n == (q["transient_revs"] + q["plot_revs"]) * q["samples_per_rev"] // q["keep_every"] + 1
 
 
@@ -130,7 +138,7 @@ def test_summary_is_the_mean_of_the_stored_per_revolution_maxima(quick_run):
     study, out, _, _ = quick_run
     summary, _ = load_table(out / "zhang2013_excavator_summary.csv")
     maxima, _ = load_table(out / "zhang2013_excavator_maxima.csv")
-    n = study.QUICK["steady_revs"]
+    n = study.MODE_SETTINGS["steady_revs"]
     assert set(summary["case"]) == set(study.CASES) == set(maxima["case"])
     for qty, (col, _, unit) in study.QUANTITIES.items():
         for name, (_, _, _, paper) in study.CASES.items():
@@ -163,7 +171,7 @@ def test_located_peaks_not_below_the_samples_and_inside_their_revolution(quick_r
             & (maxima["t_peak"] <= maxima["t_start"] + period + 1e-12)).all()
     # the located peak is well above the sampled one somewhere: the sampling does limit the peaks
     assert (maxima["peak"] > 1.05 * maxima["sampled"]).any()
-    ts = study.QUICK["transient_revs"] * period
+    ts = study.MODE_SETTINGS["transient_revs"] * period
     for name in study.CASES:
         rows = df[(df["case"] == name) & df["steady"]]
         first = rows[rows["t"] <= ts + period + 1e-9]
@@ -171,10 +179,12 @@ def test_located_peaks_not_below_the_samples_and_inside_their_revolution(quick_r
         assert m["sampled"].iloc[0] == pytest.approx(np.abs(first["rod.omega"]).max(), rel=1e-12)
     # the check run at check_factor x the samples finds the same peaks (same trajectory)
     check, _ = load_table(out / "zhang2013_excavator_maxima_check.csv")
-    assert len(check) == len(study.CASES) * len(study.QUANTITIES) * study.QUICK["check_revs"]
+    assert len(check) == len(study.CASES) * len(study.QUANTITIES) * study.MODE_SETTINGS["check_revs"]
     merged = check.merge(maxima, on=["case", "column", "rev"], suffixes=("_chk", ""))
     assert len(merged) == len(check)
-    assert np.allclose(merged["peak"], merged["peak_chk"], rtol=1e-3)
+    if study.MODE != "smoke":       # smoke's 1440 samples per revolution miss narrow spikes (the
+        # located peaks stop depending on the sampling from 14400: the study's comment)
+        assert np.allclose(merged["peak"], merged["peak_chk"], rtol=1e-3)
 
 
 def test_clearance_raises_the_peaks(quick_run):
@@ -191,14 +201,17 @@ def test_chaos_analysis_table_matches_stored_sections(quick_run):
     study, out, _, _ = quick_run
     pts, prov = load_table(out / "zhang2013_excavator_chaos.csv")
     secs, _ = load_table(out / "zhang2013_excavator_sections.parquet")
-    an = study.ANALYSIS_QUICK
+    an = study.MODE_ANALYSIS
     assert prov["analysis"]["rtol"] == an["rtol"]
     # the route's points below the committed sweep are added to it (docs/route.md)
     assert sorted(pts.loc[pts["sweep"] == "clearance", "value"]) == sorted(
-        set(an["clearances"]) | set(study.ROUTE_CLEARANCES["quick"]))
+        set(an["clearances"]) | set(study.ROUTE_CLEARANCES[study.MODE]))
     assert sorted(pts.loc[pts["sweep"] == "friction", "value"]) == sorted(an["frictions"])
     # every paper case is a point of a sweep, with a finished section and a finite exponent
+    swept = {"clearance": an["clearances"], "friction": an["frictions"]}
     for name, (sweep, value) in study.CASE_POINTS.items():
+        if not np.isclose(swept[sweep], value).any():
+            continue              # smoke mode sweeps one point of each
         p = pts[(pts["sweep"] == sweep) & np.isclose(pts["value"], value)]
         assert len(p) == 1 and p["status"].iloc[0] == "ok", name
         s = secs[(secs["sweep"] == sweep) & np.isclose(secs["value"], value) & (secs["rev"] >= 0)]
