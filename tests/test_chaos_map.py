@@ -232,6 +232,7 @@ def test_killed_map_resumed_equals_uninterrupted(reference, tmp_path):
         chaos_map(SCENE, PX, VX, PY, VY, workers=1, out=out, **KW)
 
 
+@pytest.mark.slow       # the default run checks dask on the bifurcation sweep (test_bifurcation.py)
 def test_dask_gives_the_same_table(reference, tmp_path):
     distributed = pytest.importorskip("distributed")
     ref, _ = reference

@@ -94,7 +94,7 @@ def test_ctrl_c_during_a_sweep_keeps_the_finished_points_and_resumes(tmp_path):
     out = tmp_path / "sweep"
     total = 40
     argv = ["bifurcation", "slider_crank", "--param", "driver.speed", "--values", f"200:600:{total}",
-            "--transient-revs", "0", "--revs", "40", "--workers", "2", "--quiet", "--out", str(out)]
+            "--transient-revs", "0", "--revs", "20", "--workers", "2", "--quiet", "--out", str(out)]
     rc, stdout, err, dt, kids = signal_when(argv, lambda e: len(list(out.glob("point-*.parquet"))) >= 2,
                                             tmp_path, signal.SIGINT, env=_env(), timeout=300,
                                             workers=2)
@@ -307,7 +307,8 @@ def _pool_ended(kids, out=None):
 
 
 @needs_proc
-@pytest.mark.parametrize("command", ["bifurcation", "chaos-map"])
+# the bifurcation sweep under -m slow: the same pool (nld.sweeps.executors.process_pool) as the map's
+@pytest.mark.parametrize("command", [pytest.param("bifurcation", marks=pytest.mark.slow), "chaos-map"])
 def test_sigterm_ends_the_pool_with_the_parent_and_keeps_the_finished_points(tmp_path, command):
     """SIGTERM to `nld bifurcation/chaos-map --workers 2` after the first finished point: exit 143
     within seconds, one line saying how many points were kept (the files on disk), no worker
