@@ -10,11 +10,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
 import pandas as pd
 
 from nld.errors import InputError
 
-__all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "domain_exits", "CURVE_KINDS",
+__all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "domain_exits", "curve_inputs", "CURVE_KINDS",
            "CURVE_END_REASONS", "SPECIAL_KINDS"]
 
 CURVE_KINDS = ("period_doubling", "fold", "neimark_sacker", "grazing")
@@ -151,3 +152,37 @@ def domain_exits(curve: BifurcationCurve, label2: str) -> list:
                                 abs(curve.values1[i] - curve.values1[j]),
                                 abs(curve.values2[i] - curve.values2[j])))
     return out
+
+
+def curve_inputs(system, bif, param, param2, range2, stops, max_points, step):
+    """The checked inputs of a two-parameter continuation from ``bif`` (a located Bifurcation with
+    a converged orbit), before any integration: ``(fam1, fam2, a, b, lo, hi, stops, h0)`` --
+    the families of ``param`` and ``param2`` (nld.analysis.continuation.Family), range2's ends
+    as given and sorted, the sorted ``stops`` strictly inside it, the first step ``h0``. Bad
+    input -> InputError naming the argument, its value and what is allowed."""
+    from nld.analysis.continuation import Family, check_values
+    o0 = bif.orbit
+    if o0 is None or not o0.converged:
+        raise InputError("bif: has no converged orbit at its located value")
+    fam2 = Family(system, param2)
+    fam1 = Family(system, param)
+    fam1.check(bif.value, f"bif.value ({fam1.label})")
+    try:
+        a, b = (float(x) for x in range2)
+    except (TypeError, ValueError):
+        raise InputError(f"range2 = {range2!r}: give (a, b)") from None
+    check_values([a, b], fam2.value0, fam2.label)
+    fam2.check(a, "range2:")
+    fam2.check(b, "range2:")
+    lo, hi = min(a, b), max(a, b)
+    stops = sorted(float(s) for s in stops)
+    for s in stops:
+        if not lo < s < hi:
+            raise InputError(f"stops: {fam2.label} = {s:g} is not inside range2 {lo:g} ... {hi:g}")
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
+            or max_points < 2:
+        raise InputError(f"max_points = {max_points!r}: must be an integer >= 2")
+    h0 = 1.0 if step is None else float(step)
+    if not (h0 > 0 and math.isfinite(h0)):
+        raise InputError(f"step = {step!r}: must be a positive number")
+    return fam1, fam2, a, b, lo, hi, stops, h0

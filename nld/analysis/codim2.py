@@ -51,13 +51,13 @@ import time
 import numpy as np
 
 from nld.errors import InputError, SceneError, SolveError
-from nld.analysis.continuation import (ARCLENGTH_PARAM_UNIT, Bifurcation, Family,
-                                       check_values)
+from nld.analysis.continuation import ARCLENGTH_PARAM_UNIT, Bifurcation, Family
 from nld.analysis.orbits import (PeriodicOrbit, Shooting, finite, orbit_monodromy,
                                  periodic_orbit)
 from nld.systems.derived import never_reset
 from nld.analysis.bifurcation_curve import (CURVE_END_REASONS, CURVE_KINDS, SPECIAL_KINDS,  # noqa: F401
-                                           BifurcationCurve, CurveEnd, SpecialPoint, domain_exits)
+                                           BifurcationCurve, CurveEnd, SpecialPoint, curve_inputs,
+                                           domain_exits)
 
 __all__ = ["BifurcationCurve", "CurveEnd", "SpecialPoint", "continue_bifurcation", "plot_curves",
            "CURVE_KINDS", "CURVE_END_REASONS", "SPECIAL_KINDS", "FD_U", "FD_PARAM"]
@@ -387,31 +387,10 @@ def continue_bifurcation(system, bif: Bifurcation, param2, range2, *, param, sto
         from nld.analysis.grazing_curve import continue_grazing
         return continue_grazing(system, bif, param2, range2, param=param, stops=stops,
                                 step=step, max_points=max_points, tol=tol, progress=progress)
+    fam1, fam2, a, b, lo, hi, stops, h0 = curve_inputs(system, bif, param, param2, range2, stops,
+                                                       max_points, step)
     o0 = bif.orbit
-    if o0 is None or not o0.converged:
-        raise InputError("bif: has no converged orbit at its located value")
-    fam2 = Family(system, param2)
-    fam1 = Family(system, param)
-    fam1.check(bif.value, f"bif.value ({fam1.label})")
-    try:
-        a, b = (float(x) for x in range2)
-    except (TypeError, ValueError):
-        raise InputError(f"range2 = {range2!r}: give (a, b)") from None
     v20 = fam2.value0
-    check_values([a, b], v20, fam2.label)
-    fam2.check(a, "range2:")
-    fam2.check(b, "range2:")
-    lo, hi = min(a, b), max(a, b)
-    stops = sorted(float(s) for s in stops)
-    for s in stops:
-        if not lo < s < hi:
-            raise InputError(f"stops: {fam2.label} = {s:g} is not inside range2 {lo:g} ... {hi:g}")
-    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
-            or max_points < 2:
-        raise InputError(f"max_points = {max_points!r}: must be an integer >= 2")
-    h0 = 1.0 if step is None else float(step)
-    if not (h0 > 0 and math.isfinite(h0)):
-        raise InputError(f"step = {step!r}: must be a positive number")
     sigma2 = max(abs(b - a) * ARCLENGTH_PARAM_UNIT, 1e-300)
     sigma1 = float(scale1) if scale1 is not None else \
         (ARCLENGTH_PARAM_UNIT * abs(bif.value) if bif.value != 0 else ARCLENGTH_PARAM_UNIT)

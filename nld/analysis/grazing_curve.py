@@ -33,13 +33,10 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
-
 from nld.errors import InputError, SceneError, SolveError
-from nld.analysis.continuation import (ARCLENGTH_PARAM_UNIT, Bifurcation, Family,
-                                       check_values, continue_orbit)
+from nld.analysis.continuation import ARCLENGTH_PARAM_UNIT, Bifurcation, Family, continue_orbit
 from nld.analysis.orbits import periodic_orbit
-from nld.analysis.bifurcation_curve import BifurcationCurve, CurveEnd, domain_exits
+from nld.analysis.bifurcation_curve import BifurcationCurve, CurveEnd, curve_inputs, domain_exits
 
 __all__ = ["continue_grazing", "WIDEN", "MIN_STEP_FRACTION"]
 
@@ -84,32 +81,10 @@ def continue_grazing(system, bif: Bifurcation, param2, range2, *, param, stops=(
     InputError before any integration."""
     if not isinstance(bif, Bifurcation) or bif.kind != "grazing":
         raise InputError("bif: give a grazing Bifurcation from continue_orbit(...).bifurcations")
+    fam1, fam2, a, b, lo2, hi2, stops, h0 = curve_inputs(system, bif, param, param2, range2,
+                                                         stops, max_points, step)
     o0 = bif.orbit
-    if o0 is None or not o0.converged:
-        raise InputError("bif: has no converged orbit at its located value")
-    fam2 = Family(system, param2)
-    fam1 = Family(system, param)
-    fam1.check(bif.value, f"bif.value ({fam1.label})")
-    try:
-        a, b = (float(x) for x in range2)
-    except (TypeError, ValueError):
-        raise InputError(f"range2 = {range2!r}: give (a, b)") from None
     v20 = fam2.value0
-    check_values([a, b], v20, fam2.label)
-    fam2.check(a, "range2:")
-    fam2.check(b, "range2:")
-    lo2, hi2 = min(a, b), max(a, b)
-    stops = sorted(float(s) for s in stops)
-    for s in stops:
-        if not lo2 < s < hi2:
-            raise InputError(f"stops: {fam2.label} = {s:g} is not inside range2 {lo2:g} ... "
-                             f"{hi2:g}")
-    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
-            or max_points < 2:
-        raise InputError(f"max_points = {max_points!r}: must be an integer >= 2")
-    h0 = 1.0 if step is None else float(step)
-    if not (h0 > 0 and math.isfinite(h0)):
-        raise InputError(f"step = {step!r}: must be a positive number")
     unit2 = abs(b - a) * ARCLENGTH_PARAM_UNIT
     ltol = float(locate_tol) if locate_tol is not None else \
         min(max(bif.tolerance, 0.0) or math.inf, 1e-6 * max(abs(bif.value), 1e-300))
