@@ -415,7 +415,9 @@ def _fig_case(rep, name, df, info, rec):
                 y = np.maximum(d[col].to_numpy(float), 1e-16)
                 ax.loglog(d[tcol] * 1e3, y, marker=MARKERS.get(m, "o"), color=COLORS.get(m), ms=4, label=m)
                 at = (math.log10(max(float(d[tcol].iloc[0]) * 1e3, 1e-300)), math.log10(float(y[0])))
-                if not any(abs(at[0] - a) < 0.12 and abs(at[1] - b) < 0.25 for a, b in placed):
+                # a label is about 20 x 8 pt: on these panels (4-5 decades over ~330 pt in x, up to
+                # 14 over ~190 pt in y) 0.45 decade in x or 0.8 in y keeps two labels apart
+                if not any(abs(at[0] - a) < 0.45 and abs(at[1] - b) < 0.8 for a, b in placed):
                     placed.append(at)
                     ax.annotate(f"{d.rtol.iloc[0]:.0e}", (d[tcol].iloc[0] * 1e3, y[0]), fontsize=6.5,
                                 color=COLORS.get(m), xytext=(2, 2), textcoords="offset points")
