@@ -28,7 +28,6 @@ from study_harness import ROOT, load_study  # noqa: E402
 # 48 minutes for zhang2013_sensitivity) and then removes their line. A report regenerated from
 # another commit is checked strictly whatever this table says.
 STALE = {
-    "work_precision.pdf": ("f08cb1ee6b1c", "made before the layout fix and from a dirty tree"),
 }
 
 
