@@ -199,6 +199,21 @@ def _text_width(s: str, size: float, bold: bool = False) -> float:
     return _WIDTHS[key] * size / 10.0
 
 
+def _freeze_layout(fig) -> None:
+    """Keep the panels where the last layout put them: the layout engine is removed before the page
+    is written, so that saving does not run constrained layout again (its passes cost about a
+    third of a page's rendering); an engine that cannot be removed (a colorbar made under it) stays."""
+    import warnings
+    if fig.get_layout_engine() is None:
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            fig.set_layout_engine("none")
+        except (RuntimeError, ValueError):
+            pass
+
+
 def _wrap_measured(text: str, size: float, room: float) -> list[str]:
     """``text`` broken at spaces into lines no wider than ``room`` [pt] in the report font at
     ``size`` pt (measured, not counted: a line of digits and arrows is wider than one of letters);
@@ -417,6 +432,7 @@ class Report:
                 bottom = min(bottom + figure_legend(fig, moved, bottom) + 0.01, 0.6)
                 layout()
                 place_legends(fig)
+        _freeze_layout(fig)
         self._pages.append(fig)
 
     def text_page(self, title: str, paragraphs) -> None:
