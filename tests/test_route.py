@@ -136,3 +136,28 @@ def test_a_jump_of_the_multipliers_is_a_contact_change_not_a_period_doubling():
     # the onsets of each joint, not only their sum, tell a contact gained or lost
     assert _classify_step(orb([0.04], [11, 8]), orb([0.03], [9, 10]))[0] == "contact_change"
     assert _classify_step(orb([0.04], [11, 8]), orb([0.03], [11, 8]))[0] is None
+
+
+def test_transition_labels_close_together_do_not_overlap(tmp_path):
+    """The route figure's transition labels (olyaei2012's clearance sweep at stop 44: the branch's
+    'PD 0.2861' drawn first, then the brute-force changes in order, on a log axis; rows taken by
+    turn put 'change 0.2115' over 'PD 0.2861') go to the first row where they clear their left
+    neighbour: no label over another."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from nld.analysis.route import _label_transitions
+    from nld.output.layout_check import check_pdf
+    xs = [0.0423, 0.0474, 0.0532, 0.067, 0.0751, 0.0843, 0.1335, 0.1498, 0.2115, 0.2372, 0.2661]
+    labels = [(0.2861, "PD 0.2861", "tab:green")] + [(x, f"change {x:.4g}", "tab:green") for x in xs]
+    fig, ax = plt.subplots(figsize=(8, 5))
+    ax.plot([0.02, 0.5], [0.0, 1.0], ".")
+    ax.set_xscale("log")
+    _label_transitions(ax, labels, True)
+    path = tmp_path / "labels.pdf"
+    fig.savefig(path)
+    plt.close(fig)
+    over = [d for d in check_pdf(path) if d.kind == "text-overlap"
+            and ("change" in d.text or "PD" in d.text)]
+    assert over == []

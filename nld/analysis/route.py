@@ -799,6 +799,33 @@ def route_sentence(table: pd.DataFrame, symbol: str, *, scale: float = 1.0, unit
 # the figure
 
 
+def _label_transitions(ax, labels, logx: bool) -> None:
+    """The transitions' labels along the top of ``ax``, each in the first row (of up to 6, 9 pt
+    apart) where it clears the label to its left: widths estimated at 0.55 x the 7-pt font per
+    character over the panel's width (a label that moves to another row never covers its
+    neighbour, as the former rows by turn did)."""
+    import math
+    if not labels:
+        return
+    lo, hi = ax.get_xlim()
+    f = (lambda v: math.log10(max(v, 1e-300))) if logx else (lambda v: v)
+    span = (f(hi) - f(lo)) or 1.0
+    fig = ax.get_figure()
+    width_pt = max(ax.get_position().width * fig.get_figwidth() * 72.0 * 0.9, 1.0)
+    ends: list[float] = []
+    for x, text, colour in sorted(labels):
+        start = (f(x) - f(lo)) / span + 2.0 / width_pt
+        end = start + (len(text) * 7 * 0.55 + 4) / width_pt
+        row = next((k for k, e in enumerate(ends) if start > e), None)
+        if row is None:
+            row = len(ends) if len(ends) < 6 else min(range(len(ends)), key=ends.__getitem__)
+            ends.append(end) if row == len(ends) else None
+        ends[row] = end
+        ax.annotate(text, (x, 1.0), xycoords=("data", "axes fraction"), xytext=(2, -10 - 9 * row),
+                    textcoords="offset points", fontsize=7, color=colour, rotation=0)
+
+
+
 def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd.DataFrame,
                  table: pd.DataFrame, observable: str, *, label: str, scale: float = 1.0,
                  unit: str = "", param_scale: float = 1.0, param_unit: str = "",
@@ -852,23 +879,21 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
     # one mark per location: the branch's kind first, a brute-force change only where none is
     marks = marks.assign(_k=(marks["transition"] == "regime_change").astype(int)).sort_values(
         ["_k", "at"], kind="stable")
-    n = -1
+    labels = []
     for _, r in marks.iterrows():
         x = r["at"] * param_scale
         key = round(x, 12)
         if key in seen:
             continue
         seen.add(key)
-        n += 1
         colour = "tab:red" if r["transition"] in ("onset_of_chaos", "end_of_chaos") else "tab:green"
         for axx in (ax, bx):
             axx.axvline(x, color=colour, lw=0.9, ls="-.")
             if r["at_unc"] > 0:
                 axx.axvspan((r["at"] - r["at_unc"]) * param_scale,
                             (r["at"] + r["at_unc"]) * param_scale, color=colour, alpha=0.08, lw=0)
-        ax.annotate(f"{_SHORT.get(r['transition'], r['transition'])} {x:.4g}", (x, 1.0),
-                    xycoords=("data", "axes fraction"), xytext=(2, -10 - 9 * (n % 3)),
-                    textcoords="offset points", fontsize=7, color=colour, rotation=0)
+        labels.append((x, f"{_SHORT.get(r['transition'], r['transition'])} {x:.4g}", colour))
+    _label_transitions(ax, labels, logx)
     ax.set_ylabel(f"{observable}" + (f" [{unit}]" if unit else ""))
     bx.set_ylabel("λ1 [1/rev]")
     bx.set_xlabel(label + (f" [{param_unit}]" if param_unit else ""))
