@@ -811,7 +811,8 @@ def _label_transitions(ax, labels, logx: bool) -> None:
     f = (lambda v: math.log10(max(v, 1e-300))) if logx else (lambda v: v)
     span = (f(hi) - f(lo)) or 1.0
     fig = ax.get_figure()
-    width_pt = max(ax.get_position().width * fig.get_figwidth() * 72.0 * 0.9, 1.0)
+    # the legends beside the panel take about a fifth of its width once laid out
+    width_pt = max(ax.get_position().width * fig.get_figwidth() * 72.0 * 0.75, 1.0)
     ends: list[float] = []
     for x, text, colour in sorted(labels):
         start = (f(x) - f(lo)) / span + 2.0 / width_pt
@@ -893,7 +894,6 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
                 axx.axvspan((r["at"] - r["at_unc"]) * param_scale,
                             (r["at"] + r["at_unc"]) * param_scale, color=colour, alpha=0.08, lw=0)
         labels.append((x, f"{_SHORT.get(r['transition'], r['transition'])} {x:.4g}", colour))
-    _label_transitions(ax, labels, logx)
     ax.set_ylabel(f"{observable}" + (f" [{unit}]" if unit else ""))
     bx.set_ylabel("λ1 [1/rev]")
     bx.set_xlabel(label + (f" [{param_unit}]" if param_unit else ""))
@@ -902,6 +902,7 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
         bx.set_xscale("log")
         bx.xaxis.set_major_formatter(FormatStrFormatter("%g"))
         bx.xaxis.set_minor_formatter(NullFormatter())
+    _label_transitions(ax, labels, logx)      # after the scale: positions on the final axis
     h, lab = ax.get_legend_handles_labels()
     if h:
         ax.legend(h, lab, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
