@@ -1,5 +1,6 @@
-"""The Rössler system (Rössler 1976), the reference flow of delayed-feedback control (Pyragas
-1992; nld.analysis.control, docs/control.md).
+"""The Rössler system (O. E. Rössler, "An equation for continuous chaos", Phys. Lett. A 57 (1976)
+397-398, eq. 2), the reference flow of delayed-feedback control (K. Pyragas, Phys. Lett. A 170
+(1992) 421-428, section 3; nld.analysis.control, docs/control.md).
 
 Units: dimensionless (the time unit is the system's own).
 """
