@@ -6,7 +6,8 @@ Methods (nld.analysis.control; docs/control.md, "Control of a clearance mechanis
 feedback (Pyragas, Phys. Lett. A 170 (1992) 421, eq. 2; EDFC: Socolar, Sukow & Gauthier, Phys.
 Rev. E 50 (1994) 3245, eq. 2) u = K [(1 - R) sum R^(k-1) s(t - k tau) - s(t)] on a measured state
 s (SI: rad/s for a body's phi_dot), u a torque in N m, K in N m per unit of s, tau = the target
-period in s; or OGY (Ott, Grebogi & Yorke, Phys. Rev. Lett. 64 (1990) 1196, its parameter perturbation), a per-revolution perturbation of the torque offset from the target
+period in s; or OGY (Ott, Grebogi & Yorke, Phys. Rev. Lett. 64 (1990) 1196, its parameter
+perturbation), a per-revolution perturbation of the torque offset from the target
 orbit's Jacobian. The torque is the scene's ``[controller]`` (docs/scene-format.md): a torque load
 on ``body`` whose value ``loads.N.value`` the controller drives. A scene without one gets one here
 (``body``), so the uncontrolled mechanism is the scene itself.
