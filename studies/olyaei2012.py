@@ -92,6 +92,7 @@ SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM,
 FULL["route_clearance"] = dict(
     param="joints.B.clearance", start=0.28e-3, chaotic=None, max_period=0, transient=100,
     rtol=1e-10, method="natural", criticality=True, locate_tol=2e-8,
+    cascade=dict(max_period=4, step=0.5e-6, max_points=16),
     values=sorted([c for c in FULL["clearances"] if 0.28e-3 <= c <= 0.32e-3]
                   + [0.2835e-3, 0.287e-3, 0.29e-3]))
 MODE_LABELS = {"quick": "QUICK MODE: {transient_revs} + {revs} revolutions per point, rtol {rtol:g}, a few points per sweep",

@@ -44,6 +44,7 @@ from nld.analysis.continuation import orbit_stability
 
 __all__ = ["route_to_chaos", "linked_branch", "orbit_stability", "branch_ends", "agreement",
            "sweep_regimes", "route_table", "route_sentence", "route_figure", "orbit_rows",
+           "follow_doublings", "add_doublings", "check_cascade", "delta_sentence",
            "route_record", "route_tables", "orbits_at", "orbit_exponent", "ROUTE_COLUMNS",
            "TRANSITIONS", "REGIMES"]
 
@@ -291,6 +292,192 @@ def linked_branch(scene, overrides, param, values, orbit, *, start: float, rtol,
 
 
 # ---------------------------------------------------------------------------------------------------
+# the doubled branches: switching at a supercritical period doubling, with a cost cap
+
+
+CASCADE_KEYS = ("max_period", "step", "max_points")
+
+
+def check_cascade(cascade) -> dict | None:
+    """The route's ``cascade`` setting as a dict (None: off): ``max_period`` (an integer >= 2:
+    the largest period followed), ``step`` (> 0: the natural step along a doubled branch, the
+    parameter's SI unit), ``max_points`` (an integer >= 2: the cost cap, the points of all the
+    doubled branches together). InputError naming the key otherwise, before any work."""
+    from nld.errors import InputError
+    if cascade is None or cascade is False:
+        return None
+    if not isinstance(cascade, dict):
+        raise InputError(f"cascade = {cascade!r}: give a dict with keys {', '.join(CASCADE_KEYS)}")
+    bad = sorted(set(cascade) - set(CASCADE_KEYS))
+    if bad:
+        raise InputError(f"cascade: unknown key {bad[0]!r} (allowed: {', '.join(CASCADE_KEYS)})")
+    c = {"max_period": cascade.get("max_period", 4), "step": cascade.get("step"),
+         "max_points": cascade.get("max_points", 20)}
+    for k in ("max_period", "max_points"):
+        v = c[k]
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 2:
+            raise InputError(f"cascade.{k} = {v!r}: must be an integer >= 2")
+    st = c["step"]
+    if isinstance(st, bool) or not isinstance(st, (int, float)) or not (math.isfinite(st) and st > 0):
+        raise InputError(f"cascade.step = {st!r}: must be a positive number (the parameter's unit)")
+    c["max_period"], c["max_points"], c["step"] = int(c["max_period"]), int(c["max_points"]), \
+        float(st)
+    return c
+
+
+def follow_doublings(system, branch, param, lo: float, hi: float, *, step: float,
+                     max_period: int = 4, max_points: int = 20, values=(),
+                     locate_tol: float | None = None, criticality: bool = True):
+    """The doubled branches of ``branch`` (a continued branch of ``system`` in ``param``) inside
+    [lo, hi]: at each located period doubling called supercritical (its period-2p orbit found
+    on the side where the p-orbit is unstable: ``Bifurcation.new_orbit``, from the flip
+    eigenvector, nld.analysis.continuation.bifurcation_criticality), the doubled orbit is
+    followed away from the doubling by natural continuation (``continue_orbit``, Newton from the
+    previous orbit with a secant predictor) in steps of ``step`` to the range's end in that
+    direction, with the sweep's ``values`` inside that stretch added (so that the branch has an
+    orbit at each of them); the doublings located on a doubled branch are followed the same way
+    while the period is <= ``max_period`` (Seydel 2010, sec. 7.4; Kuznetsov 2004, sec. 10.3).
+    The cost cap: ``max_points`` points for all the doubled branches together; a branch cut by it
+    ends with the reason "step_limit". Every end carries its reason (``BranchEnd``:
+    range_end, fold with its jump target, grazing / contact_change, newton_failure with the
+    residual, step_limit). Returns a ``nld.analysis.continuation.Cascade``: ``branches`` (the
+    given branch first), ``doublings`` (every supercritical or other period doubling met, in the
+    order met along the chain), ``ratios`` (successive interval ratios along the chain: three
+    doublings at least), ``message``, ``settings`` (``parent``: per branch the index of its
+    parent and of the doubling it was born at; ``points``: points used)."""
+    from nld.analysis.continuation import Cascade, Family, continue_orbit
+    from nld.errors import InputError, SceneError, SolveError
+    lo, hi = float(min(lo, hi)), float(max(lo, hi))
+    fam = Family(system, param)
+    branches, parent, doublings, notes = [branch], [None], [], []
+    budget = int(max_points)
+    queue = [0]
+    while queue:
+        ib = queue.pop(0)
+        cur = branches[ib]
+        pds = sorted((b for b in cur.bifurcations if b.kind == "period_doubling"
+                      and lo <= b.value <= hi), key=lambda b: b.value)
+        for bif in pds:
+            doublings.append(bif)
+            if 2 * cur.period > max_period:
+                notes.append(f"the period-{2 * cur.period} branch at {bif.value:.6g} is beyond "
+                             f"max_period = {max_period}")
+                continue
+            if bif.criticality != "supercritical" or bif.new_orbit is None:
+                notes.append(f"the doubling at {bif.value:.6g} is {bif.criticality}: no doubled "
+                             f"branch followed")
+                continue
+            v2 = float(bif.new_value)
+            d = 1.0 if v2 > bif.value else -1.0
+            bound = hi if d > 0 else lo
+            if (bound - v2) * d <= 0:
+                notes.append(f"the range ends at the doubling at {bif.value:.6g}")
+                continue
+            if budget < 1:
+                notes.append(f"the cap of {max_points} points was used up before the doubling "
+                             f"at {bif.value:.6g}")
+                continue
+            grid = _doubled_grid(bif.value, v2, bound, step)
+            grid += [float(v) for v in values if (v - v2) * d > 0 and (bound - v) * d >= 0]
+            grid = sorted(set(grid), key=lambda v: (v - v2) * d)
+            cut = len(grid) > budget
+            grid = grid[:budget]
+            try:
+                br2 = continue_orbit(fam.at(v2), bif.new_orbit, param, [v2] + grid,
+                                     method="natural", locate_tol=locate_tol,
+                                     criticality=criticality)
+            except (InputError, SceneError, SolveError) as e:
+                notes.append(f"the period-{2 * cur.period} branch from {v2:.6g} could not be "
+                             f"continued ({e})")
+                continue
+            _cut_collapse(br2, d)
+            budget -= max(len(br2.values) - 1, 0)
+            for e in br2.ends:
+                if e.direction == d and e.reason == "range_end" and cut:
+                    e.reason = "step_limit"
+                    e.detail = (f"the cascade's cap of {max_points} points (all doubled branches "
+                                f"together) reached before the range's end {bound:.6g}")
+                elif e.direction != d:
+                    e.reason, e.detail = "range_end", (f"born at the period doubling at "
+                                                       f"{bif.value:.6g} ± {bif.tolerance:.2g}")
+            branches.append(br2)
+            parent.append((ib, len(doublings) - 1))
+            queue.append(len(branches) - 1)
+    # the ratios along the chain of doublings p -> 2p -> 4p ... (the first of each period)
+    chain = []
+    for b in doublings:
+        if b.orbit is not None and (not chain or b.orbit.period == 2 * chain[-1].orbit.period):
+            chain.append(b)
+    vals = [b.value for b in chain]
+    ratios = [float((vals[k + 1] - vals[k]) / (vals[k + 2] - vals[k + 1]))
+              for k in range(len(vals) - 2)]
+    msg = "; ".join(notes) if notes else "every doubling met followed"
+    return Cascade(branches, doublings, ratios, msg,
+                   {"range": [lo, hi], "max_period": int(max_period), "step": float(step),
+                    "max_points": int(max_points), "points": int(max_points) - budget,
+                    "parent": parent, "chain": [b.value for b in chain]})
+
+
+def _doubled_grid(at: float, v2: float, bound: float, step: float) -> list[float]:
+    """The values after ``v2`` (the doubled orbit's first value, at distance d0 from the doubling
+    at ``at``) towards ``bound``: distances from the doubling growing geometrically (2 d0, 4 d0,
+    ...: the doubled orbit's halves part as the square root of the distance, so a fixed step from
+    a point near the doubling would land Newton on the p-orbit) until the spacing reaches
+    ``step``, then ``step`` apart, ``bound`` last."""
+    d = 1.0 if bound > v2 else -1.0
+    d0 = max(abs(v2 - at), 1e-12 * max(abs(at), 1.0))
+    out, x, gap = [], abs(v2 - at), d0
+    while gap < step:
+        x += gap
+        gap *= 2.0
+        out.append(at + d * x)
+    while True:
+        x += step
+        v = at + d * x
+        if (bound - v) * d <= 1e-9 * step:
+            break
+        out.append(v)
+    return [v for v in out if (bound - v) * d > 1e-9 * step] + [float(bound)]
+
+
+def _cut_collapse(br, direction) -> None:
+    """A doubled branch's points from the first whose halves coincide (within 10 x the Newton
+    tolerance in the map's scales: Newton from the previous orbit found the period-p orbit run
+    twice, not a period-2p orbit) are dropped; the branch then ends there with the reason
+    "newton_failure" and says so."""
+    from nld.analysis.continuation import BranchEnd
+    half = br.period // 2
+    for k, o in enumerate(br.orbits):
+        m = o.map
+        spread = float(np.max(np.abs(m.difference(o.points[0], o.points[half])
+                                     / np.asarray(m.scales, dtype=float))))
+        if spread <= 10 * o.tolerance and k > 0:
+            bad = br.values[k]
+            br.values, br.orbits = br.values[:k], br.orbits[:k]
+            last = br.values[-1]
+            br.bifurcations = [b for b in br.bifurcations
+                               if (b.value - last) * direction <= 0]
+            br.ends = [e for e in br.ends if e.direction != direction] + [BranchEnd(
+                direction, float(last), "newton_failure",
+                f"Newton from the period-{br.period} orbit at {last:.6g} converged at "
+                f"{bad:.6g} to the period-{half} orbit run twice (its halves coincide to "
+                f"{spread:.2g} of the scales): no period-{br.period} orbit found there")]
+            br.message += f"; cut at {last:.6g}: the period-{half} orbit found at {bad:.6g}"
+            return
+
+
+def delta_sentence(ratios, n_doublings: int) -> str:
+    """Feigenbaum's δ from the interval ratios of a chain of doublings, or why there is none."""
+    from nld.analysis.continuation import FEIGENBAUM_DELTA
+    if not ratios:
+        return (f"{n_doublings} period doubling(s) located along the chain: too few to form the "
+                f"interval ratio δ (three needed; Feigenbaum's δ = {FEIGENBAUM_DELTA:.4f} is the "
+                f"smooth reference)")
+    return ("interval ratios " + ", ".join(f"{r:.4g}" for r in ratios)
+            + f" (Feigenbaum's δ = {FEIGENBAUM_DELTA:.4f} the smooth reference)")
+
+
+# ---------------------------------------------------------------------------------------------------
 # the workflow
 
 
@@ -300,7 +487,7 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                    method: str = "arclength", max_points: int = 60, polish: bool = True,
                    observables=(), guess: str = "previous", bisect: int = 3,
                    max_iter: int | None = None, criticality: bool = True,
-                   progress=None) -> dict:
+                   cascade: dict | None = None, progress=None) -> dict:
     """The period-1 orbit of ``scene`` at ``param`` = ``start`` (Newton shooting from the state
     after ``transient`` revolutions), continued over the range of ``values`` (the sweep's values;
     ``method`` "arclength": pseudo-arclength both ways from ``start``, at most ``max_points``
@@ -312,19 +499,28 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
     ``polish`` the orbit again at each of ``values`` inside the branch's span (Newton from the
     nearest branch point: ``at_values``, for :func:`agreement`); ``observables``: table columns
     whose values at the section points are kept per polished orbit; and the distinct orbits of
-    periods 1..``max_period`` at ``chaotic`` (None: none searched).
+    periods 1..``max_period`` at ``chaotic`` (None: none searched). ``cascade`` (None: off; a dict
+    ``max_period``, ``step``, ``max_points``: :func:`check_cascade`): at each supercritical period
+    doubling of the branch the doubled branch is followed within the range, and so on up to
+    ``max_period`` (:func:`follow_doublings`; one key only).
 
     Returns a dict: ``orbit`` (the start orbit), ``branch`` (``Branch`` or None), ``ends``
     (:func:`branch_ends`), ``at_values`` ({value: orbit}), ``section`` ({value: {observable:
     array over the orbit's points}}), ``force`` ((min, max) contact force of the first clearance
     joint along each branch point), ``upos``, ``route`` (one sentence about the branch), ``param``,
-    ``settings`` and ``wall_s``. Never raises for a failed solve: the failure is in ``route``."""
+    ``settings`` and ``wall_s``; with ``cascade`` also ``doubled`` (one dict per doubled branch:
+    ``branch``, ``ends``, ``born`` (the doubling it was born at: value, tolerance, criticality,
+    period), ``at_values``, ``section``, ``curve``) and ``cascade`` (``doublings`` [(period, value,
+    tolerance, criticality)], ``ratios``, ``delta`` (one sentence), ``message``, ``points``,
+    ``cpu_s``: the process time of the doubled branches). Never raises for a failed solve: the
+    failure is in ``route``; a bad ``cascade`` is an InputError before any work."""
     from nld.analysis.orbits import find_orbits, periodic_orbit
     from nld.errors import SolveError
     from nld.systems.core import SceneSystem
     t0 = time.perf_counter()
     values = sorted(float(v) for v in values)
     linked = len(_keys(param)) > 1
+    cascade = check_cascade(cascade)
     grid = sorted(set(values + [float(start)]))
     steps = np.diff(grid) if len(grid) > 1 else np.array([1.0])
     ltol = locate_tol if locate_tol is not None else 1e-3 * float(np.min(steps))
@@ -334,7 +530,7 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
                             max_period=max_period, seeds_per_period=seeds_per_period,
                             locate_tol=ltol, values=values, method="linked" if linked else method,
                             max_points=max_points, guess=guess, bisect=bisect,
-                            max_iter=max_iter, criticality=criticality)}
+                            max_iter=max_iter, criticality=criticality, cascade=cascade)}
     keys = _keys(param)
     S = _linked_system(scene, overrides, keys, start) if linked else \
         SceneSystem(scene, list(overrides) + [f"{param}={start!r}"])
@@ -375,6 +571,9 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
             out["curve"] = [(float(v), _section_of(orb, observables), orbit_class(orb))
                             for v, orb in zip(br.values, br.orbits)]
         out["route"] = branch_sentence(br, param, start, out["ends"])
+        if cascade is not None and not linked:
+            add_doublings(out, S, br, param, grid, values=values, locate_tol=ltol,
+                          criticality=criticality, cascade=cascade, observables=observables)
     if chaotic is not None and max_period >= 1:
         try:
             Sc = _linked_system(scene, overrides, keys, chaotic)
@@ -386,9 +585,59 @@ def route_to_chaos(scene, overrides, param: str, values, *, start: float, chaoti
     return out
 
 
-def _polish(scene, overrides, keys, br, values, rtol) -> dict:
+def add_doublings(out: dict, S, br, param, grid, *, values, cascade: dict, locate_tol=None,
+                  criticality: bool = True, observables=()) -> None:
+    """The doubled branches of ``br`` (a branch of system ``S`` in ``param``; any system:
+    :func:`follow_doublings` over the range of ``grid``, ``cascade`` as :func:`check_cascade`
+    takes it), each polished at the ``values`` it spans, into ``out["doubled"]`` and
+    ``out["cascade"]`` (with the process time they took), and told in ``out["route"]``: the
+    part of :func:`route_to_chaos` that follows the doublings."""
+    cascade = check_cascade(cascade)
+    ltol = locate_tol
+    from nld.analysis.continuation import Family
+    c0 = time.process_time()
+    fam = Family(S, param)
+    cas = follow_doublings(S, br, param, min(grid), max(grid), values=values, locate_tol=ltol,
+                           criticality=criticality, **cascade)
+    entries = []
+    for b2, par in zip(cas.branches[1:], cas.settings["parent"][1:]):
+        bif = cas.doublings[par[1]]
+        e = {"branch": b2, "ends": branch_ends(b2),
+             "born": {"value": float(bif.value), "tolerance": float(bif.tolerance),
+                      "criticality": bif.criticality, "period": int(bif.orbit.period)},
+             "at_values": {}, "section": {}, "curve": []}
+        e["at_values"] = _polish(None, (), (), b2, values, b2.settings.get("rtol") or
+                                 out.get("settings", {}).get("rtol"), system_at=fam.at)
+        if observables:
+            e["section"] = {v: _section_of(o, observables) for v, o in e["at_values"].items()}
+            e["curve"] = [(float(v), _section_of(o, observables), orbit_class(o))
+                          for v, o in zip(b2.values, b2.orbits)]
+        entries.append(e)
+    out["doubled"] = entries
+    out["cascade"] = {"doublings": [(int(b.orbit.period), float(b.value), float(b.tolerance),
+                                     b.criticality) for b in cas.doublings],
+                      "ratios": list(cas.ratios), "chain": cas.settings["chain"],
+                      "delta": delta_sentence(cas.ratios, len(cas.settings["chain"])),
+                      "message": cas.message, "points": cas.settings["points"],
+                      "cpu_s": time.process_time() - c0}
+    for e in entries:
+        b2 = e["branch"]
+        v = np.asarray(b2.values, dtype=float)
+        far = [x for x in e["ends"] if not x["detail"].startswith("born at")]
+        out["route"] = out.get("route", "") + (f" The period-{b2.period} orbit born at the period doubling at "
+                         f"{e['born']['value']:.6g} ({e['born']['criticality']}) is followed over "
+                         f"{v.min():.6g} ... {v.max():.6g} "
+                         f"({', '.join(sorted({orbit_class(o) for o in b2.orbits}))})"
+                         + "".join(f"; it ends at {x['value']:.6g}: {x['reason'].replace('_', ' ')}"
+                                   + (f" ({x['detail']})" if x["detail"] else "") for x in far)
+                         + ".")
+    out["route"] = out.get("route", "") + f" Cascade: {out['cascade']['delta']}."
+
+
+def _polish(scene, overrides, keys, br, values, rtol, system_at=None) -> dict:
     """{value: orbit} at each of ``values`` inside the branch's span, by Newton from the nearest
-    branch point (the branch point itself where it is at that value)."""
+    branch point (the branch point itself where it is at that value); ``system_at``: value ->
+    system (default the scene with the keys set)."""
     from nld.analysis.orbits import periodic_orbit
     from nld.errors import SolveError
     bv = np.asarray(br.values, dtype=float)
@@ -403,7 +652,8 @@ def _polish(scene, overrides, keys, br, values, rtol) -> dict:
             out[v] = br.orbits[k]
             continue
         try:
-            o = periodic_orbit(_linked_system(scene, overrides, keys, v), br.period,
+            o = periodic_orbit(system_at(v) if system_at is not None else
+                               _linked_system(scene, overrides, keys, v), br.period,
                                guess=br.orbits[k].points[0], z=br.orbits[k].z[0], rtol=rtol)
         except SolveError:
             continue
@@ -488,18 +738,23 @@ def agreement(route: dict, sweep: pd.DataFrame, observables, scales, *, tol: flo
     brute-force section at that value (``sweep``: rows ``value``, the ``observables``, optionally
     ``status``). A point agrees when the last ``settled`` section points all lie within ``tol``
     (scaled by ``scales``, one per observable: e.g. the clearance) of one of the orbit's points.
-    Returns one row per value: value, class (stable / unstable / neutral continuum), distance (the
-    largest scaled distance of a section point to the orbit), agrees (bool), why (for a stable
-    point that does not agree: "coexistence" when the brute-force motion is settled elsewhere, or
-    "continuum" for a permanent-contact orbit, whose neighbours are orbits too)."""
+    Returns one row per value and branch (the doubled branches' orbits, ``route["doubled"]``,
+    after the period-1 branch's): value, class (stable / unstable / neutral continuum), distance
+    (the largest scaled distance of a section point to the orbit), agrees (bool), why (for a
+    stable point that does not agree: "coexistence" when the brute-force motion is settled
+    elsewhere, or "continuum" for a permanent-contact orbit, whose neighbours are orbits too),
+    period (the orbit's)."""
     rows = []
     obs = list(observables)
     sc = np.asarray(scales, dtype=float) * np.ones(len(obs))
     ok = sweep[sweep["status"] == "ok"] if "status" in sweep.columns else sweep
-    secs = route.get("section") or {}
     if "rev" in ok.columns:
         ok = ok[ok["rev"] >= 0]
-    for v, o in sorted(route.get("at_values", {}).items()):
+    cases = [(v, o, route.get("section") or {}) for v, o in
+             sorted(route.get("at_values", {}).items())]
+    for e in route.get("doubled", []):
+        cases += [(v, o, e.get("section") or {}) for v, o in sorted(e["at_values"].items())]
+    for v, o, secs in cases:
         pts = ok[np.isclose(ok["value"].to_numpy(float), v, rtol=1e-12, atol=0.0)]
         if not len(pts) or v not in secs:
             continue
@@ -529,9 +784,9 @@ def agreement(route: dict, sweep: pd.DataFrame, observables, scales, *, tol: flo
                 why = "coexistence (the brute force from the assembly is not on the orbit)"
         rows.append({"value": v, "class": cls, "max_abs_mu": o.max_abs_multiplier,
                      "mu_unc": multiplier_uncertainty(o), "onsets": int(o.onsets_per_period),
-                     "distance": dist, "agrees": agrees, "why": why})
+                     "distance": dist, "agrees": agrees, "why": why, "period": int(o.period)})
     return pd.DataFrame(rows, columns=["value", "class", "max_abs_mu", "mu_unc", "onsets",
-                                       "distance", "agrees", "why"])
+                                       "distance", "agrees", "why", "period"])
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -587,7 +842,11 @@ def route_table(sweep_name: str, param: str, pts: pd.DataFrame, *, period_col: s
     if route is not None and route.get("branch") is not None:
         br = route["branch"]
         bifs = sorted(br.bifurcations, key=lambda b: b.value)
-        rows += _branch_rows(br, route, pts, agree)
+        ag1 = agree[agree["period"] == br.period] if (agree is not None and len(agree) and
+                                                       "period" in agree.columns) else agree
+        rows += _branch_rows(br, route, pts, ag1)
+        for e in route.get("doubled", []):
+            rows += _doubled_rows(e, route, pts, agree)
     # brute-force runs
     i = 0
     while i < len(vals):
@@ -644,6 +903,15 @@ def _bf_agrees(a, b, regime, route, agree) -> str:
     if route is None or route.get("branch") is None or agree is None or not len(agree):
         return "no branch here"
     sub = agree[(agree["value"] >= a - 1e-15) & (agree["value"] <= b + 1e-15)]
+    p = _period_of(regime)
+    if "period" in sub.columns:
+        sp = sub[(sub["period"] == p) & (sub["class"] != "unstable")] if p > 1 else sub[:0]
+        if len(sp):           # a doubled branch of the brute force's period here
+            bad = sp[~sp["agrees"]]
+            return f"yes (the period-{p} branch)" if not len(bad) else (
+                f"no at " + ", ".join(f"{v:.4g} (period-{p} branch: {w})"
+                                      for v, w in zip(bad["value"], bad["why"])))
+        sub = sub[sub["period"] == 1]
     if not len(sub):
         return "no branch here"
     st = sub[sub["class"] != "unstable"]
@@ -721,6 +989,73 @@ def _branch_rows(br, route, pts, agree) -> list[dict]:
     return rows
 
 
+def _doubled_rows(e, route, pts, agree) -> list[dict]:
+    """The rows of one doubled branch (``route["doubled"]`` entry), in branch order from its
+    doubling outwards: each stretch with one stability word, its transition the one that ends it
+    AWAY from the doubling it was born at (a further located bifurcation, else the branch's far
+    end with its reason); the evidence names the doubling it was born at and, on the last row,
+    the cascade's interval ratios or why there are none."""
+    br = e["branch"]
+    vals = np.asarray(br.values, dtype=float)
+    orbs = list(br.orbits)
+    cls = [orbit_class(o) for o in orbs]
+    born = e["born"]
+    far = next((x for x in e["ends"] if not str(x["detail"]).startswith("born at")),
+               {"reason": "range_end", "detail": "", "value": vals[-1]})
+    pv = pts["value"].to_numpy(float)
+    sub_all = (agree[agree["period"] == br.period] if agree is not None and len(agree)
+               and "period" in agree.columns else None)
+    rows = []
+    i = 0
+    while i < len(vals):
+        j = i
+        while j + 1 < len(vals) and cls[j + 1] == cls[i]:
+            j += 1
+        o = orbs[j]
+        mtxt = (f"max |mu| {o.max_abs_multiplier:.4g} ± {multiplier_uncertainty(o):.2g}"
+                + (" (the memory's neutral 1 included)" if memory_neutral(o) else "")
+                + f", {o.onsets_per_period} onsets/period")
+        if j + 1 < len(vals):
+            a, b = sorted((vals[j], vals[j + 1]))
+            inside = [x for x in br.bifurcations if a <= x.value <= b]
+            if inside:
+                x = inside[0]
+                kind, at, unc, ev = x.kind, x.value, x.tolerance, f"{x.detail}; {mtxt}"
+            else:
+                kind, at, unc = "regime_change", 0.5 * (a + b), 0.5 * (b - a)
+                ev = f"{cls[i]} -> {cls[j + 1]} between branch points; {mtxt}"
+        else:
+            kind = far["reason"] if far["reason"] in ("fold", "grazing", "contact_change",
+                                                       "range_end") else "branch_end"
+            at, unc = float(far["value"]), 0.0
+            ev = (f"branch end: {far['reason']}" + (f" ({far['detail']})" if far["detail"] else "")
+                  + f"; {mtxt}")
+        ev = (f"born at the period doubling of the period-{born['period']} orbit at "
+              f"{born['value']:.6g} ± {born['tolerance']:.2g} ({born['criticality']}); " + ev)
+        lo, hi = float(min(vals[i], vals[j])), float(max(vals[i], vals[j]))
+        if cls[i] == "unstable":
+            ag = "n/a (unstable: brute force does not show it)"
+        else:
+            sub = None if sub_all is None else sub_all[(sub_all["value"] >= lo - 1e-15)
+                                                       & (sub_all["value"] <= hi + 1e-15)]
+            if sub is None or not len(sub):
+                ag = "not checked (no sweep point on this stretch)"
+            else:
+                bad = sub[~sub["agrees"]]
+                ag = "yes" if not len(bad) else "no at " + ", ".join(
+                    f"{v:.4g} ({w})" for v, w in zip(bad["value"], bad["why"]))
+        ib = int(np.searchsorted(pv, at, side="right")) - 1
+        rows.append({"source": "continuation", "regime": f"period {br.period} {cls[i]}",
+                     "period": br.period, "from": lo, "to": hi, "transition": kind,
+                     "at": at, "at_unc": unc, "evidence": ev,
+                     "lambda_before": _lam(pts, ib), "lambda_after": _lam(pts, ib + 1),
+                     "agrees": ag})
+        i = j + 1
+    if rows and route.get("cascade"):
+        rows[-1]["evidence"] += f"; cascade: {route['cascade']['delta']}"
+    return rows
+
+
 def route_sentence(table: pd.DataFrame, symbol: str, *, scale: float = 1.0, unit: str = "") -> str:
     """The sequence of a :func:`route_table` in one sentence, told from the periodic end towards
     the chaotic one (by decreasing parameter when the chaos lies at the low end): the brute-force
@@ -730,7 +1065,8 @@ def route_sentence(table: pd.DataFrame, symbol: str, *, scale: float = 1.0, unit
     μ = 0.035 ± 1e-05 → period 2 (μ = 0.02) → onset of chaos at μ = 0.015 ± 0.005 → chaotic
     (μ = 0.01–0)"."""
     bf = table[table["source"] == "brute force"].reset_index(drop=True)
-    cont = table[table["source"] == "continuation"]
+    allc = table[table["source"] == "continuation"]
+    cont = allc[allc["period"] == 1]
     u = f" {unit}" if unit else ""
     if not len(bf):
         return "No sweep points."
@@ -792,7 +1128,37 @@ def route_sentence(table: pd.DataFrame, symbol: str, *, scale: float = 1.0, unit
         for r in ends:
             s += (f" The continued period-1 branch: {r['transition'].replace('_', ' ')} at "
                   f"{at(r)} ({r['evidence'].split(';')[0]}).")
+    for p in sorted({int(x) for x in allc["period"]} - {1}):
+        s += " " + _doubled_sentence(allc, p, at, name_of=lambda r: (
+            f"{r['regime'].replace(f'period {p} ', f'period {p}, ')} ({symbol} = "
+            f"{num(r['from'])}–{num(r['to'])}{u})"))
     return s
+
+
+def _doubled_sentence(cont, p, at, name_of) -> str:
+    """"The doubled branch: period p/2 → period doubling at … → period p, … (…) → its end at …"
+    from the continuation rows of period p, in branch order (away from the doubling of the
+    period-p/2 rows it was born at), with the cascade's interval ratios or why there are none."""
+    rows = cont[cont["period"] == p]
+    par = cont[(cont["period"] == p // 2) & (cont["transition"] == "period_doubling")]
+    parts = [f"period {p // 2}"]
+    down = True
+    if len(par):
+        pr = par.iloc[int(np.argmin(np.abs(par["at"].to_numpy(float) - rows["from"].mean())))]
+        parts.append(f"period doubling at {at(pr)}")
+        down = pr["at"] >= rows["to"].max()
+    rows = rows.sort_values("from", ascending=not down)
+    tail = ""
+    for _, r in rows.iterrows():
+        parts.append(name_of(r))
+        k = r["transition"]
+        w = ("end of the range" if k == "range_end" else
+             f"branch end ({r['evidence'].split('branch end: ')[1].split(';')[0]})"
+             if k == "branch_end" and "branch end: " in r["evidence"] else k.replace("_", " "))
+        parts.append(f"{w} at {at(r)}")
+        if "cascade: " in r["evidence"]:
+            tail = " Cascade: " + r["evidence"].split("cascade: ")[1] + "."
+    return f"The doubled branch: {' → '.join(parts)}.{tail}"
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -827,13 +1193,42 @@ def _label_transitions(ax, labels, logx: bool) -> None:
 
 
 
+def _draw_branch(ax, period, sec, at_values, curve, observable, scale, param_scale, colour,
+                 shown) -> None:
+    """One branch over the brute force: its curve through its own points in branch order (p
+    lines for a period-p orbit: the observable at each section point; styled by stability), and
+    circles at the sweep values (filled: stable)."""
+    vs = sorted(v for v in sec if observable in sec[v])
+    ys = {v: np.atleast_1d(sec[v][observable]) for v in vs}
+    styles = {"stable": "-", "unstable": "--", "neutral continuum": ":", "neutral": ":"}
+    cls = {v: orbit_class(at_values[v]) for v in vs}
+    curve = curve or [(v, sec[v], cls[v]) for v in vs]
+    for k in range(period):
+        for (a, sa, ca), (b, sb, cb) in zip(curve[:-1], curve[1:]):
+            c = ca if ca == cb else "unstable" if "unstable" in (ca, cb) else ca
+            lab = f"period {period}, {c}"
+            ax.plot([a * param_scale, b * param_scale],
+                    [np.atleast_1d(sa[observable])[k] * scale,
+                     np.atleast_1d(sb[observable])[k] * scale],
+                    styles[c], color=colour, lw=1.6, label=None if lab in shown else lab)
+            shown.add(lab)
+        for v in vs:
+            c = cls[v]
+            lab = f"period-{period} orbit at a sweep value ({c})"
+            ax.plot(v * param_scale, ys[v][k] * scale, "o", ms=3.5, color=colour,
+                    mfc=colour if c == "stable" else "white",
+                    label=None if lab in shown else lab)
+            shown.add(lab)
+
+
 def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd.DataFrame,
                  table: pd.DataFrame, observable: str, *, label: str, scale: float = 1.0,
                  unit: str = "", param_scale: float = 1.0, param_unit: str = "",
                  logx: bool = False):
     """Two axes ``ax`` over ``bx`` sharing the parameter axis: above, the brute-force section points (grey)
     with the branch (stable solid, unstable dashed, neutral dotted; the observable at the orbit's
-    section points) and its located transitions marked; beneath, λ1 per revolution ± its
+    section points) and its doubled branches (``route["doubled"]``: p lines for a period-p
+    orbit, in the next colours) and its located transitions marked; beneath, λ1 per revolution ± its
     uncertainty at each sweep point (filled: chaotic). The transitions of ``table`` are vertical
     lines through both, labelled. Returns the two axes."""
     if sweep is not None and len(sweep) and observable in sweep.columns:
@@ -842,29 +1237,12 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
                    s=7.0, linewidths=0, color="0.55", label="brute force (section points)")
     shown = set()
     if route is not None and route.get("branch") is not None and route.get("section"):
-        br = route["branch"]
-        sec = route["section"]
-        vs = sorted(v for v in sec if observable in sec[v])
-        ys = {v: np.atleast_1d(sec[v][observable]) for v in vs}
-        styles = {"stable": "-", "unstable": "--", "neutral continuum": ":", "neutral": ":"}
-        cls = {v: orbit_class(route["at_values"][v]) for v in vs}
-        # the branch's own points in branch order: the curve, styled by the class of each stretch
-        curve = route.get("curve") or [(v, sec[v], cls[v]) for v in vs]
-        for k in range(br.period):
-            for (a, sa, ca), (b, sb, cb) in zip(curve[:-1], curve[1:]):
-                c = ca if ca == cb else "unstable" if "unstable" in (ca, cb) else ca
-                lab = f"period {br.period}, {c}"
-                ax.plot([a * param_scale, b * param_scale],
-                        [np.atleast_1d(sa[observable])[k] * scale,
-                         np.atleast_1d(sb[observable])[k] * scale],
-                        styles[c], color="C0", lw=1.6, label=None if lab in shown else lab)
-                shown.add(lab)
-            for v in vs:
-                c = cls[v]
-                ax.plot(v * param_scale, ys[v][k] * scale, "o", ms=3.5, color="C0",
-                        mfc="C0" if c == "stable" else "white",
-                        label=None if f"orbit {c}" in shown else f"orbit at a sweep value ({c})")
-                shown.add(f"orbit {c}")
+        _draw_branch(ax, route["branch"].period, route["section"], route["at_values"],
+                     route.get("curve"), observable, scale, param_scale, "C0", shown)
+    for n, e in enumerate((route or {}).get("doubled", [])):
+        if e.get("curve"):
+            _draw_branch(ax, e["branch"].period, e["section"], e["at_values"], e["curve"],
+                         observable, scale, param_scale, f"C{n + 1}", shown)
     pv = pts["value"].to_numpy(float) * param_scale
     lam = pts["lambda_per_rev"].to_numpy(float)
     unc = pts["lambda_unc_per_rev"].to_numpy(float)
@@ -941,12 +1319,19 @@ def route_record(route: dict, sde: bool = False) -> dict:
             "branch_message": None if br is None else br.message,
             "ends": route.get("ends", []),
             "upos": [o.to_dict() for o in route.get("upos", [])],
+            "doubled": [{"period": e["branch"].period, "born": e["born"], "ends": e["ends"],
+                         "values": [float(min(e["branch"].values)), float(max(e["branch"].values))],
+                         "bifurcations": [b.to_dict() for b in e["branch"].bifurcations]}
+                        for e in route.get("doubled", [])],
+            "cascade": ({k: v for k, v in route["cascade"].items() if not (sde and k == "cpu_s")}
+                        if route.get("cascade") else None),
             "wall_s": None if sde else route.get("wall_s")}
 
 
 def route_tables(route: dict) -> dict:
     """The tables of :func:`route_to_chaos` to save: ``branch`` (one row per branch point, with its
-    stability word and the contact force range) and ``orbits`` (the orbits found in the chaotic
+    stability word and the contact force range; the doubled branches' points after the period-1
+    branch's, column ``period``, the observables at each section point as ``name[k]``) and ``orbits`` (the orbits found in the chaotic
     range)."""
     out = {}
     br = route.get("branch")
@@ -964,7 +1349,20 @@ def route_tables(route: dict) -> dict:
             # the observables at the orbit's (first) section point, as the brute force records them
             for name in curve[0][1] if curve else []:
                 t[name] = [float(np.atleast_1d(c[1][name])[0]) for c in curve]
-        out["branch"] = t
+        parts = [t]
+        for e in route.get("doubled", []):
+            b2 = e["branch"]
+            t2 = b2.table()
+            t2.insert(4, "stability", [orbit_class(o) for o in b2.orbits])
+            t2 = t2.drop(columns=["stable"]) if "stable" in t2.columns else t2
+            t2.insert(5, "mu_uncertainty", [multiplier_uncertainty(o) for o in b2.orbits])
+            if len(e.get("curve") or []) == len(t2):
+                for name in e["curve"][0][1]:
+                    for k in range(b2.period):
+                        t2[f"{name}[{k}]"] = [float(np.atleast_1d(c[1][name])[k])
+                                              for c in e["curve"]]
+            parts.append(t2)
+        out["branch"] = pd.concat(parts, ignore_index=True) if len(parts) > 1 else t
     ups = route.get("upos") or []
     out["orbits"] = (pd.concat([orbit_rows([o]).assign(
         point=[o.points[0].tolist()]) for o in ups], ignore_index=True) if ups
@@ -978,8 +1376,8 @@ def route_tables(route: dict) -> dict:
 
 def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
     """:func:`route_to_chaos` with a study's route settings ``r`` (param, values, start, chaotic,
-    transient, max_period, optional rtol, method, max_points, guess, bisect, max_iter) and a
-    progress stage."""
+    transient, max_period, optional rtol, method, max_points, guess, bisect, max_iter, cascade)
+    and a progress stage."""
     study.stage(f"route to chaos: the period-1 orbit in {r['param']}")
     return route_to_chaos(scene, list(overrides), r["param"], r["values"], start=r["start"],
                           chaotic=r.get("chaotic"), transient=r["transient"],
@@ -988,7 +1386,7 @@ def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
                           max_points=r.get("max_points", 60), observables=observables,
                           guess=r.get("guess", "previous"), bisect=r.get("bisect", 3),
                           max_iter=r.get("max_iter"), criticality=r.get("criticality", True),
-                          locate_tol=r.get("locate_tol"))
+                          locate_tol=r.get("locate_tol"), cascade=r.get("cascade"))
 
 
 def save_route(study, routes: dict, table: pd.DataFrame, sde: bool = False) -> None:
