@@ -138,3 +138,41 @@ def test_a_bad_cascade_setting_is_named(bad, what):
     with pytest.raises(InputError, match=what.replace(".", r"\.").replace("(", r"\(")):
         check_cascade(bad)
     assert check_cascade(None) is None
+
+
+@pytest.mark.slow
+def test_olyaei_period_2_orbit_lies_on_the_brute_force_section():
+    """The slider-crank's period-2 orbit at c = 0.28141 mm (a clearance-sweep value, where the
+    study's doubled branch runs; docs/route.md): Newton from the state after 100 revolutions finds
+    it, its deciding multipliers inside the unit circle (the contact memory's neutral 1 left out);
+    runs at the sweep's rtol 1e-8 from the assembly and from the orbit's state (perturbed by 1e-3
+    of the scales) repeat with period 2 after 100 revolutions (the study's PERIOD_TOL_C, 1e-4 c),
+    the latter on the orbit's points within the route's ROUTE_TOL (1e-3 c). About 4 s."""
+    from nld.analysis.route import orbit_class
+    from nld.systems.core import SceneSystem
+    c = 0.28140892032472753e-3
+    S = SceneSystem("slider_crank_olyaei", [f"joints.B.clearance={c!r}"])
+    o = periodic_orbit(S, 2, transient=100, rtol=1e-10)
+    assert o.converged and orbit_class(o) == "neutral continuum"
+    assert np.max(np.abs(o.deciding_multipliers)) < 0.5
+    kern = S.kernel
+    cols = list(kern.columns)
+    jx, jy = cols.index("B.ex"), cols.index("B.ey")
+
+    def obs(m, x, z):
+        y, zz = m.unpack(x, z)
+        row = np.empty(len(cols))
+        kern.module.observe(float(S.t0), np.ascontiguousarray(y), S.p, zz, row)
+        return np.array([row[jx], row[jy]])
+
+    Y = np.array([obs(o.map, o.points[k], o.z[k]) for k in range(2)])
+    assert np.max(np.abs(Y[0] - Y[1])) / c > 1e-2           # the halves differ: period 2
+    m = StroboscopicMap(S, 1, 1e-8)
+    for x0, z0, on_orbit in ((m.y0, m.z0, False), (o.points[0] + 1e-3 * o.map.scales, o.z[0], True)):
+        X, Z = section_points(m, x0, z0, 116)
+        B = np.array([obs(m, X[k], Z[k]) for k in range(100, 116)])
+        assert np.max(np.abs(B[2:] - B[:-2])) / c < 1e-4
+        assert np.max(np.abs(B[1:] - B[:-1])) / c > 1e-2
+        if on_orbit:
+            d = np.max(np.min(np.max(np.abs(B[:, None, :] - Y[None]), axis=2), axis=1)) / c
+            assert d < 1e-3
