@@ -12,6 +12,10 @@ turns into the other:
   with its Floquet multipliers, the located bifurcations and the way each end of the branch ends;
   the orbit is polished by Newton at every sweep value the branch spans, so that it can be compared
   with the brute-force section there;
+* with ``cascade`` set, :func:`follow_doublings` switches at every supercritical period doubling
+  to the doubled branch (from the flip eigenvector) and follows it within the range, and on to
+  period 4 ... (a cost cap in points, every end with its reason), with the interval ratios of the
+  doublings (Feigenbaum's delta the smooth reference) or why there are too few (docs/route.md);
 * :func:`agreement` checks every branch point called stable against the brute-force section at
   that value (the section points must lie on the orbit within the integration error), or says why
   not (coexistence: the assembly's motion went to another attractor; continuum: the orbit is one
