@@ -168,7 +168,8 @@ def test_olyaei_period_2_orbit_lies_on_the_brute_force_section():
     Y = np.array([obs(o.map, o.points[k], o.z[k]) for k in range(2)])
     assert np.max(np.abs(Y[0] - Y[1])) / c > 1e-2           # the halves differ: period 2
     m = StroboscopicMap(S, 1, 1e-8)
-    for x0, z0, on_orbit in ((m.y0, m.z0, False), (o.points[0] + 1e-3 * o.map.scales, o.z[0], True)):
+    near = o.points[0] + 1e-3 * o.map.scales
+    for x0, z0, on_orbit in ((m.y0, m.z0, False), (near, o.z[0], True)):
         X, Z = section_points(m, x0, z0, 116)
         B = np.array([obs(m, X[k], Z[k]) for k in range(100, 116)])
         assert np.max(np.abs(B[2:] - B[:-2])) / c < 1e-4

@@ -322,7 +322,8 @@ def check_cascade(cascade) -> dict | None:
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 2:
             raise InputError(f"cascade.{k} = {v!r}: must be an integer >= 2")
     st = c["step"]
-    if isinstance(st, bool) or not isinstance(st, (int, float)) or not (math.isfinite(st) and st > 0):
+    if isinstance(st, bool) or not isinstance(st, (int, float)) or not (math.isfinite(st)
+                                                                      and st > 0):
         raise InputError(f"cascade.step = {st!r}: must be a positive number (the parameter's unit)")
     c["max_period"], c["max_points"], c["step"] = int(c["max_period"]), int(c["max_points"]), \
         float(st)
@@ -628,7 +629,8 @@ def add_doublings(out: dict, S, br, param, grid, *, values, cascade: dict, locat
         b2 = e["branch"]
         v = np.asarray(b2.values, dtype=float)
         far = [x for x in e["ends"] if not x["detail"].startswith("born at")]
-        out["route"] = out.get("route", "") + (f" The period-{b2.period} orbit born at the period doubling at "
+        out["route"] = out.get("route", "") + (
+                         f" The period-{b2.period} orbit born at the period doubling at "
                          f"{e['born']['value']:.6g} ({e['born']['criticality']}) is followed over "
                          f"{v.min():.6g} ... {v.max():.6g} "
                          f"({', '.join(sorted({orbit_class(o) for o in b2.orbits}))})"
@@ -913,7 +915,7 @@ def _bf_agrees(a, b, regime, route, agree) -> str:
         if len(sp):           # a doubled branch of the brute force's period here
             bad = sp[~sp["agrees"]]
             return f"yes (the period-{p} branch)" if not len(bad) else (
-                f"no at " + ", ".join(f"{v:.4g} (period-{p} branch: {w})"
+                "no at " + ", ".join(f"{v:.4g} (period-{p} branch: {w})"
                                       for v, w in zip(bad["value"], bad["why"])))
         sub = sub[sub["period"] == 1]
     if not len(sub):
@@ -1140,8 +1142,8 @@ def route_sentence(table: pd.DataFrame, symbol: str, *, scale: float = 1.0, unit
 
 
 def _doubled_sentence(cont, p, at, name_of) -> str:
-    """"The doubled branch: period p/2 → period doubling at … → period p, … (…) → its end at …"
-    from the continuation rows of period p, in branch order (away from the doubling of the
+    """"The doubled branch: period p/2 → period doubling at … → period p, … (…) → its end
+    at …" from the continuation rows of period p, in branch order (away from the doubling of the
     period-p/2 rows it was born at), with the cascade's interval ratios or why there are none."""
     rows = cont[cont["period"] == p]
     par = cont[(cont["period"] == p // 2) & (cont["transition"] == "period_doubling")]
@@ -1232,8 +1234,8 @@ def route_figure(ax, bx, route: dict | None, sweep: pd.DataFrame | None, pts: pd
     """Two axes ``ax`` over ``bx`` sharing the parameter axis: above, the brute-force section points (grey)
     with the branch (stable solid, unstable dashed, neutral dotted; the observable at the orbit's
     section points) and its doubled branches (``route["doubled"]``: p lines for a period-p
-    orbit, in the next colours) and its located transitions marked; beneath, λ1 per revolution ± its
-    uncertainty at each sweep point (filled: chaotic). The transitions of ``table`` are vertical
+    orbit, in the next colours) and its located transitions marked; beneath, λ1 per revolution
+    ± its uncertainty at each sweep point (filled: chaotic). The transitions of ``table`` are vertical
     lines through both, labelled. Returns the two axes."""
     if sweep is not None and len(sweep) and observable in sweep.columns:
         ok = sweep[sweep["status"] == "ok"] if "status" in sweep.columns else sweep
@@ -1335,8 +1337,8 @@ def route_record(route: dict, sde: bool = False) -> dict:
 def route_tables(route: dict) -> dict:
     """The tables of :func:`route_to_chaos` to save: ``branch`` (one row per branch point, with its
     stability word and the contact force range; the doubled branches' points after the period-1
-    branch's, column ``period``, the observables at each section point as ``name[k]``) and ``orbits`` (the orbits found in the chaotic
-    range)."""
+    branch's, column ``period``, the observables at each section point as ``name[k]``) and
+    ``orbits`` (the orbits found in the chaotic range)."""
     out = {}
     br = route.get("branch")
     if br is not None:
