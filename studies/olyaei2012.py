@@ -93,7 +93,8 @@ SMOKE = dict(QUICK, transient_revs=2, revs=4, lyap_revs=3, speeds=[3000.0 / RPM,
 # (nld.analysis.route.follow_doublings: natural steps growing from the doubling to 0.5 µm, the
 # sweep's 0.2814 mm on the way, at most 16 points for all doubled branches): 15 points, period 2
 # (neutral continuum: stable but for the memory's 1) to 0.28 mm, no further doubling in the range;
-# cost 18-19 CPU s (time.process_time around it; the route 38 CPU s with it). docs/route.md.
+# cost 17-19 CPU s (time.process_time around it, three runs; the route 36-38 CPU s with it).
+# docs/route.md.
 FULL["route_clearance"] = dict(
     param="joints.B.clearance", start=0.28e-3, chaotic=None, max_period=0, transient=100,
     rtol=1e-10, method="natural", criticality=True, locate_tol=2e-8,

@@ -1384,7 +1384,8 @@ def run_route(study, scene, r: dict, *, overrides=(), observables=()) -> dict:
     """:func:`route_to_chaos` with a study's route settings ``r`` (param, values, start, chaotic,
     transient, max_period, optional rtol, method, max_points, guess, bisect, max_iter, cascade)
     and a progress stage."""
-    study.stage(f"route to chaos: the period-1 orbit in {r['param']}")
+    study.stage(f"route to chaos: the period-1 orbit in {r['param']}"
+                + (" and its doubled branches" if r.get("cascade") else ""))
     return route_to_chaos(scene, list(overrides), r["param"], r["values"], start=r["start"],
                           chaotic=r.get("chaotic"), transient=r["transient"],
                           max_period=r.get("max_period", 0), rtol=r.get("rtol", 1e-10),
