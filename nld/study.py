@@ -165,6 +165,35 @@ def _numbered(fn, i, *args):
     return i, fn(*args)
 
 
+class Background:
+    """``fn(*args, **kwargs)`` on a thread of this process while the caller goes on (e.g. a
+    route to chaos in the main process while :func:`pool_map`'s workers run a sweep: the main
+    process is otherwise idle, waiting for their results). ``result()`` waits for it and returns
+    its value or raises its exception. The thread is a daemon: an interrupted study (Ctrl-C,
+    SIGTERM: the main thread's handlers end the pool and exit) does not wait for it. Its compiled
+    calls hold the GIL, so the main thread's signal handling and its pool bookkeeping wait for the
+    end of the current call (a Newton step's integration: seconds at most)."""
+
+    def __init__(self, fn, *args, **kwargs):
+        import threading
+        self._box: dict = {}
+        self.thread = threading.Thread(target=self._run, args=(fn, args, kwargs), daemon=True,
+                                        name=fn.__name__)
+        self.thread.start()
+
+    def _run(self, fn, args, kwargs):
+        try:
+            self._box["value"] = fn(*args, **kwargs)
+        except BaseException as e:      # noqa: BLE001 - re-raised by result()
+            self._box["error"] = e
+
+    def result(self):
+        self.thread.join()
+        if "error" in self._box:
+            raise self._box["error"]
+        return self._box["value"]
+
+
 # ---------------------------------------------------------------------------------------------------
 # outputs replaced only by a whole study (nld study), and the full-mode outputs already there
 

@@ -98,9 +98,14 @@ OMEGA1 = 15.6          # rad/s, the paper's crank speed (the scene's driver.spee
 # again. Issue 23 (10-minute main job): lambda1 over 100 revolutions at rtol 1e-8, the check at 1e-9
 # over 200, both with the state-only error control (tangent_err=False); before: 200 and 400
 # revolutions with the tangent vectors in the error control and the check's section run again at
-# 1e-9. Measured against those settings on all 14 points in docs/studies.md
+# 1e-9. Measured against those settings on all 14 points in docs/studies.md. Issue 40 (the main
+# job within 10 minutes with the route's points): the check over 150 revolutions (check_span 1.5;
+# still a tighter tolerance over a longer span). The check was two thirds of a chaotic point's time
+# (f = 0.1, process_time at 1/10 of the spans: section 0.93 s, lambda1 2.75 s, check 7.45 s);
+# over 200 the weakest point, r = 0.02 mm, gave 2.48 +- 0.55 against the main 1.51 +- 0.71, so a
+# span 3/4 as long (interval about 1.15x wider) leaves it positive by several of its half-widths.
 ANALYSIS_FULL = dict(rtol=1e-8, estimator="tangent", d0=None, transient_revs=2, section_revs=50, lyap_revs=100,
-                     max_steps_per_rev=200_000, rtol_check=1e-9, check_span=2, tangent_err=False,
+                     max_steps_per_rev=200_000, rtol_check=1e-9, check_span=1.5, tangent_err=False,
                      clearances=[1e-5, 2e-5, 3e-5, 5e-5, 7e-5, 1e-4, 2e-4, 5e-4],
                      frictions=[0.0, 0.01, 0.02, 0.035, 0.05, 0.1])
 ANALYSIS_QUICK = dict(rtol=1e-7, estimator="tangent", d0=None, transient_revs=1, section_revs=2, lyap_revs=2,
@@ -122,7 +127,10 @@ SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # Time per phase of the full mode (CPU s, time.process_time, docs/route.md): the cases 22 s wall on
 # 2 workers; the 14 committed sweep points 9.7 CPU min in all (stop 27); the four route points
 # 19 + 19 + 53 + 18 s (92 s each before ROUTE_POINT); the route 70 s and the 5 µm orbit check 13 s
-# (before: 110 - 186 s), after the sweep in the main process.
+# (before: 110 - 186 s). ROUTE_CONCURRENT: with workers the route runs on a thread of the main
+# process from the study's start (nld.study.Background), beside the cases and the sweep (before:
+# after the sweep, 93 s wall with one core idle); its agreement with the sections and the orbit
+# checks follow the sweep.
 ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
                   max_period=0, transient=10, rtol=1e-8, bisect=0, guess="run", max_iter=5,
                   values=[3e-6, 3.5e-6, 3.75e-6])
@@ -445,7 +453,9 @@ def run_analysis(an: dict, scene_name: str = SCENE, workers: int = 1):
                           if an.get("rtol_check") else "")
                        + (f" ({workers} workers)" if workers > 1 else ""))
     from nld.study import pool_map
-    out = pool_map(analysis_point, items, workers)
+    # handed out last point first (SWEEP_ORDER): the costly friction points early, the cheap
+    # route points below 10 µm last, so that the two workers end together
+    out = pool_map(analysis_point, items[::-1], workers)[::-1]
     rows = [r for _, r in out]
     return (pd.concat([t for t, _ in out], ignore_index=True), pd.DataFrame(rows))
 
@@ -1320,19 +1330,18 @@ def _report(study, base, tables, ideal, runs, ts, maxima, summary, conv, an, sec
 
 def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = False) -> Path:
     """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
-
     Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
-    NLD_WORKERS (nld.output.report.study_workers).
-    """
-    from nld.study import Study
+    NLD_WORKERS (nld.output.report.study_workers)."""
+    from nld.study import Background, Study
     study = Study(globals(), quick, out_dir, smoke=smoke)
     settings, workers = study.settings, study.workers(WORKERS[study.mode])
+    route_job = Background(run_routes, study) if workers > 1 else None   # ROUTE_CONCURRENT
     base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
     summary = summary_table(revolution_stats(maxima), ideal, ts)
     conv = convergence_table(maxima, check, settings)
     sim_wall = study.elapsed()
     an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
-    secs, pts, route = analysis_and_route(study, an, workers)
+    secs, pts, route = analysis_and_route(study, an, workers, route_job)
     study.stage("force spectra", "zhang2013")
     spectra = force_spectra(tables, ts)
     analysis_wall = time.perf_counter() - t_an
@@ -1350,20 +1359,22 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     return study.pdf
 
 
-def analysis_and_route(study, an: dict, workers: int):
+def analysis_and_route(study, an: dict, workers: int, route_job=None):
     """The chaos analysis (run_analysis) with ROUTE_CLEARANCES[mode] added to the clearance sweep
-    (``an`` is updated; at those points ROUTE_POINT[mode]), then the route to chaos (run_routes),
-    the orbit checks of the added regular points (orbit_checks) and the route rows (route_rows).
-    Returns (sections, points, route)."""
+    (``an`` is updated; at those points ROUTE_POINT[mode]), the route to chaos (run_routes; from
+    ``route_job``, a nld.study.Background running it since the study's start, when given), its
+    agreement with the sweep's sections (route_agreement), the orbit checks of the added regular
+    points (orbit_checks) and the route rows (route_rows). Returns (sections, points, route)."""
     an["clearances"] = sorted(set(an["clearances"]) | set(ROUTE_CLEARANCES[study.mode]))
     an["route_points"] = list(ROUTE_CLEARANCES[study.mode])
     an["route_point"] = dict(ROUTE_POINT[study.mode])
     secs, pts = run_analysis(an, workers=workers)
     t0 = time.perf_counter()
-    route = run_routes(study, secs, pts)
+    route = route_job.result() if route_job is not None else run_routes(study)
+    route_agreement(route, secs)
     pts = orbit_checks(study, route, secs, pts)
     route_rows(route, secs, pts)
-    route["wall_s"] = time.perf_counter() - t0
+    route["wall_s"] = route["route_wall_s"] + time.perf_counter() - t0
     return secs, pts, route
 
 
@@ -1386,19 +1397,26 @@ def section_periods(secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def run_routes(study, secs, pts) -> dict:
+def run_routes(study) -> dict:
     """The route to chaos of the clearance sweep (nld.analysis.route): the period-1 orbit at r1 =
-    r2 = ROUTE_*["start"] continued in both clearances together and checked against the
-    brute-force section at each clearance of the sweep it spans. Returns {"route", "agree",
-    "settings"} (route_rows adds the rows)."""
-    from nld.analysis.route import agreement, run_route
+    r2 = ROUTE_*["start"] continued in both clearances together. Returns {"route", "settings",
+    "route_wall_s"} (route_agreement adds "agree", route_rows the rows)."""
+    from nld.analysis.route import run_route
+    t0 = time.perf_counter()
     r = {"full": ROUTE_FULL, "quick": ROUTE_QUICK, "smoke": ROUTE_SMOKE}[study.mode]
     route = run_route(study, SCENE, r, observables=SECTION_OBS) if r else None
-    agree = None
-    if route is not None:
-        agree = agreement(route, secs[secs["sweep"] == "clearance"], SECTION_OBS, r["start"],
-                          tol=ROUTE_TOL)
-    return {"route": route, "agree": agree, "settings": r}
+    return {"route": route, "settings": r, "route_wall_s": time.perf_counter() - t0}
+
+
+def route_agreement(routes: dict, secs: pd.DataFrame) -> dict:
+    """routes["agree"]: the route's orbits checked against the brute-force section at each
+    clearance of the sweep the branch spans (nld.analysis.route.agreement, to ROUTE_TOL x the
+    start clearance); None without a route."""
+    from nld.analysis.route import agreement
+    r, route = routes["settings"], routes["route"]
+    routes["agree"] = None if route is None else agreement(
+        route, secs[secs["sweep"] == "clearance"], SECTION_OBS, r["start"], tol=ROUTE_TOL)
+    return routes
 
 
 def orbit_checks(study, routes: dict, secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
