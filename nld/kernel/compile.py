@@ -13,6 +13,7 @@ import importlib.util
 import json
 import os
 import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +26,9 @@ from nld.model.scene_model import Scene
 from nld.model.topology import Topology, build_topology, partition
 
 _LOADED: dict[str, object] = {}
+# one thread of a process writes and imports a kernel at a time (a study's route runs on a second
+# thread, nld.study.Background): two imports of one module would compile it twice
+_COMPILING = threading.RLock()
 
 
 def cache_dir() -> Path:
@@ -134,14 +138,15 @@ def _generator_digest() -> str:
 
 
 def _import(path: Path, name: str):
-    if name in _LOADED:
-        return _LOADED[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    _LOADED[name] = mod
-    return mod
+    with _COMPILING:
+        if name in _LOADED:
+            return _LOADED[name]
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod
+        spec.loader.exec_module(mod)
+        _LOADED[name] = mod
+        return mod
 
 
 def compile_scene(scene: Scene) -> Kernel:
@@ -160,10 +165,11 @@ def compile_scene(scene: Scene) -> Kernel:
     # slider_crank_olyaei) generate the same source and share one compiled kernel
     name = f"nld_kernel_{key}"
     path = cache_dir() / f"{name}.py"
-    if not path.exists():
-        src = generate(scene, topo, layout)
-        tmp = path.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text(src)
-        os.replace(tmp, path)
+    with _COMPILING:
+        if not path.exists():
+            src = generate(scene, topo, layout)
+            tmp = path.with_suffix(f".tmp{os.getpid()}-{threading.get_ident()}")
+            tmp.write_text(src)
+            os.replace(tmp, path)
     mod = _import(path, name)
     return Kernel(scene, topo, layout, mod, key, columns(scene, topo), event_count(scene, topo), path)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import threading
 from dataclasses import dataclass
 from typing import Callable
 
@@ -87,19 +88,25 @@ class ContactLaw:
 
 _LAWS: dict[str, ContactLaw] = {}
 _FOUND = False
+# discovery runs once per process, under a lock: a study's second thread (nld.study.Background)
+# reading the registry while the first still fills it saw no law at all ("must be one of: ")
+_DISCOVERY = threading.Lock()
 
 
 def _discover() -> None:
     global _FOUND
     if _FOUND:
         return
-    _FOUND = True
-    from nld.laws import contact
-    for info in sorted(pkgutil.iter_modules(contact.__path__), key=lambda m: m.name):
-        mod = importlib.import_module(f"{contact.__name__}.{info.name}")
-        law = getattr(mod, "LAW", None)
-        if isinstance(law, ContactLaw):
-            register(law)
+    with _DISCOVERY:
+        if _FOUND:
+            return
+        from nld.laws import contact
+        for info in sorted(pkgutil.iter_modules(contact.__path__), key=lambda m: m.name):
+            mod = importlib.import_module(f"{contact.__name__}.{info.name}")
+            law = getattr(mod, "LAW", None)
+            if isinstance(law, ContactLaw):
+                register(law)
+        _FOUND = True
 
 
 def register(law: ContactLaw) -> ContactLaw:
