@@ -147,51 +147,52 @@ def pool_map(fn, items, workers: int) -> list:
     items = list(items)
     if workers <= 1 or len(items) <= 1:
         return [fn(*it) for it in items]
-    import importlib
-
     from nld.sweeps.executors import process_pool
-    src = Path(fn.__code__.co_filename).resolve()
-    if str(src.parent) not in sys.path:
-        sys.path.insert(0, str(src.parent))
-    fn = getattr(importlib.import_module(src.stem), fn.__name__)
+    fn = _importable(fn)
     done = dict(process_pool(_numbered, fn, [(i, *it) for i, it in enumerate(items)],
                              workers=min(workers, len(items)), batch_size=1))
     return [done[i] for i in range(len(items))]
+
+
+def _importable(fn):
+    """A study's module-level function as a spawned process imports it: from the study's module
+    by its file name (the folder put on sys.path, which the processes inherit)."""
+    import importlib
+    src = Path(fn.__code__.co_filename).resolve()
+    if str(src.parent) not in sys.path:
+        sys.path.insert(0, str(src.parent))
+    return getattr(importlib.import_module(src.stem), fn.__name__)
+
+
+def background(fn, *args, enabled: bool = True):
+    """``fn(*args)`` (a module-level function of the study) on a process of its own while the
+    study goes on (nld.sweeps.executors.Background; use it as a context manager, so that an
+    interrupted study ends it); ``enabled`` False: run now in this process (one worker) and hold
+    the value. Either way ``.result()`` gives it."""
+    from nld.sweeps.executors import Background
+    return Background(_importable(fn), *args) if enabled else _Done(fn(*args))
+
+
+class _Done:
+    """:func:`background`'s value computed at once (``enabled`` False)."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def result(self):
+        return self.value
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
 
 
 def _numbered(fn, i, *args):
     """(i, fn(*args)): a pool_map item with its place in the list (a pool returns them as they
     finish)."""
     return i, fn(*args)
-
-
-class Background:
-    """``fn(*args, **kwargs)`` on a thread of this process while the caller goes on (e.g. a
-    route to chaos in the main process while :func:`pool_map`'s workers run a sweep: the main
-    process is otherwise idle, waiting for their results). ``result()`` waits for it and returns
-    its value or raises its exception. The thread is a daemon: an interrupted study (Ctrl-C,
-    SIGTERM: the main thread's handlers end the pool and exit) does not wait for it. Its compiled
-    calls hold the GIL, so the main thread's signal handling and its pool bookkeeping wait for the
-    end of the current call (a Newton step's integration: seconds at most)."""
-
-    def __init__(self, fn, *args, **kwargs):
-        import threading
-        self._box: dict = {}
-        self.thread = threading.Thread(target=self._run, args=(fn, args, kwargs), daemon=True,
-                                        name=fn.__name__)
-        self.thread.start()
-
-    def _run(self, fn, args, kwargs):
-        try:
-            self._box["value"] = fn(*args, **kwargs)
-        except BaseException as e:      # noqa: BLE001 - re-raised by result()
-            self._box["error"] = e
-
-    def result(self):
-        self.thread.join()
-        if "error" in self._box:
-            raise self._box["error"]
-        return self._box["value"]
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -127,10 +127,11 @@ SECTION_OBS = ["A.ex", "A.ey", "B.ex", "B.ey"]
 # Time per phase of the full mode (CPU s, time.process_time, docs/route.md): the cases 22 s wall on
 # 2 workers; the 14 committed sweep points 9.7 CPU min in all (stop 27); the four route points
 # 19 + 19 + 53 + 18 s (92 s each before ROUTE_POINT); the route 70 s and the 5 µm orbit check 13 s
-# (before: 110 - 186 s). ROUTE_CONCURRENT: with workers the route runs on a thread of the main
-# process from the study's start (nld.study.Background), beside the cases and the sweep (before:
-# after the sweep, 93 s wall with one core idle); its agreement with the sections and the orbit
-# checks follow the sweep.
+# (before: 110 - 186 s). ROUTE_CONCURRENT: with workers the route runs on a process of its own
+# from the study's start (nld.study.background), beside the cases and the sweep (before: after
+# the sweep, 93 s wall with one core idle; a thread of the main process held the GIL through its
+# compiled calls and stalled the pool's result reading); its agreement with the sections and the
+# orbit checks follow the sweep.
 ROUTE_FULL = dict(param="joints.A.clearance,joints.B.clearance", start=3e-6, chaotic=None,
                   max_period=0, transient=10, rtol=1e-8, bisect=0, guess="run", max_iter=5,
                   values=[3e-6, 3.5e-6, 3.75e-6])
@@ -1332,16 +1333,16 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
     """Run the study and write the PDF, the parquet time series and the summary CSV; returns the PDF.
     Settings: FULL, QUICK, SMOKE (test only) and ANALYSIS_*; worker processes WORKERS[mode] or
     NLD_WORKERS (nld.output.report.study_workers)."""
-    from nld.study import Background, Study
+    from nld.study import Study, background
     study = Study(globals(), quick, out_dir, smoke=smoke)
     settings, workers = study.settings, study.workers(WORKERS[study.mode])
-    route_job = Background(run_routes, study) if workers > 1 else None   # ROUTE_CONCURRENT
-    base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
-    summary = summary_table(revolution_stats(maxima), ideal, ts)
-    conv = convergence_table(maxima, check, settings)
-    sim_wall = study.elapsed()
-    an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
-    secs, pts, route = analysis_and_route(study, an, workers, route_job)
+    with background(run_routes, study.mode, enabled=workers > 1) as route_job:   # ROUTE_CONCURRENT
+        base, tables, ideal, runs, times, ts, maxima, check = run_cases(settings, workers=workers)
+        summary = summary_table(revolution_stats(maxima), ideal, ts)
+        conv = convergence_table(maxima, check, settings)
+        sim_wall = study.elapsed()
+        an, t_an = dict(ANALYSIS_SMOKE if smoke else ANALYSIS_QUICK if quick else ANALYSIS_FULL), time.perf_counter()
+        secs, pts, route = analysis_and_route(study, an, workers, route_job)
     study.stage("force spectra", "zhang2013")
     spectra = force_spectra(tables, ts)
     analysis_wall = time.perf_counter() - t_an
@@ -1362,7 +1363,7 @@ def main(quick: bool = False, out_dir: Path = Path("reports"), *, smoke: bool = 
 def analysis_and_route(study, an: dict, workers: int, route_job=None):
     """The chaos analysis (run_analysis) with ROUTE_CLEARANCES[mode] added to the clearance sweep
     (``an`` is updated; at those points ROUTE_POINT[mode]), the route to chaos (run_routes; from
-    ``route_job``, a nld.study.Background running it since the study's start, when given), its
+    ``route_job``, nld.study.background running it since the study's start, when given), its
     agreement with the sweep's sections (route_agreement), the orbit checks of the added regular
     points (orbit_checks) and the route rows (route_rows). Returns (sections, points, route)."""
     an["clearances"] = sorted(set(an["clearances"]) | set(ROUTE_CLEARANCES[study.mode]))
@@ -1370,7 +1371,9 @@ def analysis_and_route(study, an: dict, workers: int, route_job=None):
     an["route_point"] = dict(ROUTE_POINT[study.mode])
     secs, pts = run_analysis(an, workers=workers)
     t0 = time.perf_counter()
-    route = route_job.result() if route_job is not None else run_routes(study)
+    if workers > 1:
+        study.stage("route to chaos: waiting for its process")
+    route = route_job.result() if route_job is not None else run_routes(study.mode)
     route_agreement(route, secs)
     pts = orbit_checks(study, route, secs, pts)
     route_rows(route, secs, pts)
@@ -1397,14 +1400,23 @@ def section_periods(secs: pd.DataFrame, pts: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def run_routes(study) -> dict:
-    """The route to chaos of the clearance sweep (nld.analysis.route): the period-1 orbit at r1 =
-    r2 = ROUTE_*["start"] continued in both clearances together. Returns {"route", "settings",
-    "route_wall_s"} (route_agreement adds "agree", route_rows the rows)."""
+class _RouteStages:
+    """The progress lines of run_routes (a worker process shows none: nld.sweeps.executors)."""
+
+    def stage(self, what: str) -> None:
+        from nld.progress import stage
+        stage("zhang2013_excavator", what)
+
+
+def run_routes(mode: str) -> dict:
+    """The route to chaos of the clearance sweep (nld.analysis.route) in ``mode``: the period-1
+    orbit at r1 = r2 = ROUTE_*["start"] continued in both clearances together. Returns {"route",
+    "settings", "route_wall_s"} (route_agreement adds "agree", route_rows the rows); it pickles
+    (its orbits' kernels go as their scenes), so that it can run on a process of its own."""
     from nld.analysis.route import run_route
     t0 = time.perf_counter()
-    r = {"full": ROUTE_FULL, "quick": ROUTE_QUICK, "smoke": ROUTE_SMOKE}[study.mode]
-    route = run_route(study, SCENE, r, observables=SECTION_OBS) if r else None
+    r = {"full": ROUTE_FULL, "quick": ROUTE_QUICK, "smoke": ROUTE_SMOKE}[mode]
+    route = run_route(_RouteStages(), SCENE, r, observables=SECTION_OBS) if r else None
     return {"route": route, "settings": r, "route_wall_s": time.perf_counter() - t0}
 
 

@@ -1,38 +1,50 @@
-"""nld.study.Background: a study's side job (the excavator's route to chaos) on a thread while the
-main thread goes on (the sweep's pool)."""
-import threading
+"""nld.sweeps.executors.Background / nld.study.background: a study's side job (the excavator's
+route to chaos) on a process of its own while the study's pool runs its sweep."""
+import os
+import time
 
 import pytest
 
-from nld.study import Background
+from nld.study import background
+from nld.sweeps.executors import Background
 
 
-def test_background_runs_beside_the_caller_and_returns_its_value():
-    started, go = threading.Event(), threading.Event()
-
-    def job(a, b=0):
-        started.set()
-        # waits for the caller: a job run before the caller goes on would time out here
-        if not go.wait(timeout=20):
-            raise TimeoutError("the caller did not go on while the job ran")
-        return a + b
-
-    bg = Background(job, 2, b=3)
-    assert started.wait(timeout=20)
-    go.set()
-    assert bg.result() == 5
+def pid_plus(a, b=0):
+    return os.getpid(), a + b
 
 
-def test_background_reraises_the_jobs_error_in_the_caller():
-    def job():
-        raise ValueError("joints.A.clearance = -1: must be >= 0")
+def fails():
+    raise ValueError("joints.A.clearance = -1: must be >= 0")
 
-    bg = Background(job)
+
+def sleeps(seconds):
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def test_background_runs_in_another_process_and_returns_its_value():
+    with background(pid_plus, 2, 3) as job:
+        pid, value = job.result()
+    assert value == 5 and pid != os.getpid()
+
+
+def test_background_disabled_runs_at_once_in_this_process():
+    with background(pid_plus, 2, 3, enabled=False) as job:
+        assert job.result() == (os.getpid(), 5)
+
+
+def test_background_reraises_the_workers_error_in_the_caller():
     with pytest.raises(ValueError, match="joints.A.clearance"):
-        bg.result()
+        with Background(fails) as job:
+            job.result()
 
 
-def test_background_thread_does_not_keep_an_interrupted_process_alive():
-    bg = Background(lambda: 1)
-    assert bg.thread.daemon
-    assert bg.result() == 1
+def test_leaving_the_block_by_an_error_ends_the_process_at_once():
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        with Background(sleeps, 60) as job:
+            procs = list(job._ex._processes.values())
+            time.sleep(1.0)            # the worker has started and sleeps
+            raise KeyboardInterrupt
+    assert time.monotonic() - t0 < 20
+    assert procs and not any(p.is_alive() for p in procs)

@@ -49,6 +49,11 @@ class Kernel:
     n_events: int
     source_path: Path
 
+    def __reduce__(self):
+        # pickled as its scene: another process compiles it again (or loads it from the kernel
+        # cache), so that results holding a kernel (periodic orbits, branches) cross processes
+        return compile_scene, (self.scene,)
+
     @property
     def n_state(self) -> int:
         return 2 * len(self.topo.independent)

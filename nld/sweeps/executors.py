@@ -218,3 +218,51 @@ def execute(fn, payload, items, *, workers=None, dask=None, batch_size: int | No
     else:
         yield from process_pool(fn, payload, items, workers=workers, batch_size=batch_size,
                                 warm=warm, store=store)
+
+
+class Background:
+    """``fn(*args)`` on one spawned worker process (set up as the pool's: SIGINT ignored, killed
+    with its parent, no progress bars, the forwarded environment) while the caller goes on, e.g.
+    a study's route to chaos beside its sweep's pool: the main process only waits for the pool,
+    and a second thread of it would hold the GIL through its compiled calls and stall the pool's
+    result reading. ``fn``, ``args`` and the result must pickle. Use it as a context manager:
+    leaving the block by an exception (Ctrl-C, SIGTERM, an error) ends the process at once
+    (nld.interrupt.end_pool) instead of waiting for it. ``result()`` waits and returns the value
+    or raises the worker's error."""
+
+    def __init__(self, fn, *args):
+        import multiprocessing as mp
+        self._ex = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"),
+                                       initializer=_init_worker, initargs=(_env(), None))
+        with spawning():
+            self._future = self._ex.submit(_call, fn, args)
+
+    def result(self):
+        try:
+            value = self._future.result()
+        except BaseException:
+            end_pool(self._ex)
+            raise
+        self._ex.shutdown(wait=True)
+        return value
+
+    def cancel(self) -> None:
+        """End the worker now (its work is lost)."""
+        self._future.cancel()
+        end_pool(self._ex)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, value, tb):
+        if kind is not None:
+            self.cancel()
+        return False
+
+
+def _call(fn, args):
+    try:
+        return fn(*args)
+    except Exception as e:
+        raise portable(e) from None
+

@@ -34,6 +34,7 @@ iteration count.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -630,6 +631,22 @@ def henon(a: float = 1.4, b: float = 0.3, x0=(0.0, 0.0)) -> DiscreteMap:
 
 
 # ---------------------------------------------------------------- scenes
+def _plain(v) -> bool:
+    """Whether a field is data (numbers, strings, arrays, tuples/lists/dicts of them)."""
+    if v is None or isinstance(v, (bool, int, float, str, np.ndarray, np.generic)):
+        return True
+    if isinstance(v, (tuple, list)):
+        return all(_plain(x) for x in v)
+    if isinstance(v, dict):
+        return all(isinstance(k, str) and _plain(x) for k, x in v.items())
+    return False
+
+
+def _scene_system(scene, method, event_samples):
+    """A SceneSystem again from its pickled scene and settings (SceneSystem.__reduce__)."""
+    return SceneSystem(scene, method=method, event_samples=event_samples)
+
+
 class SceneSystem(ContinuousSystem):
     """A mechanism scene as a :class:`ContinuousSystem` (``is_scene``; fields ``scene``, ``kernel``).
 
@@ -655,6 +672,13 @@ class SceneSystem(ContinuousSystem):
     """
 
     is_scene = True
+
+    def __reduce__(self):
+        # pickled as its scene and settings plus its plain fields (state, parameters, scales ...);
+        # the kernel's functions are bound again on the other side (nld.kernel.compile.Kernel
+        # pickles as its scene), so that orbits and branches of a scene cross processes
+        plain = {k: v for k, v in self.__dict__.items() if _plain(v)}
+        return _scene_system, (self.scene, self.method, self.event_samples), plain
 
     def __init__(self, scene_or_name, overrides=None, *, kernel=None, method: str = "dopri5",
                  event_samples: int | None = None, y0=None):
@@ -697,7 +721,7 @@ class SceneSystem(ContinuousSystem):
         self.angle_states = np.array([i for i, k in enumerate(kern.topo.independent)
                                       if kern.topo.coords[k].kind in ("crank", "rev", "fth")],
                                      dtype=np.int64)
-        self.tolerance_fn = lambda rtol, _s=self.scales: tolerances_from_scales(_s, rtol)
+        self.tolerance_fn = functools.partial(tolerances_from_scales, self.scales)   # picklable
 
     # ------------------------------------------------------------------ parameters
     def _param_index(self, key, field: str = "param") -> int:
