@@ -8,6 +8,18 @@ files fill the other worker's time. Only the order changes; every test still run
 """
 from __future__ import annotations
 
+import os
+import sys
+
+# One BLAS thread per process. The suite runs 2 worker processes on 2 cores; OpenBLAS starts a
+# thread per core in each, and its threads wait for a core the other worker holds: the tests' many
+# small linear-algebra calls (2x2 expm, solves, eigenvalues in Python loops) then ran 3-4x slower
+# (the closed-form impact orbit of tests/impact_closed_form.py: 3.0 s with one thread, 10.8 s with
+# the default, both cores busy). Set here, before numpy is imported in this process, and inherited
+# by the xdist workers and by every subprocess a test starts; a value given outside is kept.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 # cold-run wall time per file, longest first (measured on 2 cores with empty kernel and numba caches)
 LONGEST_FIRST = [          # seconds in a cold run at stop 22 (sum of setup + call, --durations=0)
     "test_tangent.py",           # 50 (176 at stop 21, before the integrators were compiled once)
@@ -32,3 +44,4 @@ def pytest_collection_modifyitems(session, config, items):
     first = len(LONGEST_FIRST)
     # a stable sort: within a file, and among the files not listed, the order is unchanged
     items.sort(key=lambda item: rank.get(item.path.name, first))
+
