@@ -32,7 +32,6 @@ LONGEST_FIRST = [
     "test_study_zhang2013.py",   # 67
     "test_report_layout.py",     # 62
     "test_compile_once.py",      # 48
-    "test_ownership.py",         # 46
     "test_orbits.py",            # 124 (52 of it the closed-form impact orbit under BLAS contention, 37 the Henon table)
     "test_simulator.py",         # 34
     "test_study_olyaei2012.py",  # 22
@@ -47,6 +46,10 @@ LONGEST_FIRST = [
     "test_study_chaos_onset.py", # 16
     "test_hard_cases.py",        # 16
     "test_continuation.py",      # 14
+    # 46, most of it compiling the JIT build of the integrator cores (NLD_AOT=0), which
+    # test_compile_once compiles too: late, so that it finds them in numba's disk cache instead of
+    # compiling them at the same time on the other worker
+    "test_ownership.py",
 ]
 
 
