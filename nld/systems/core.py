@@ -680,6 +680,13 @@ class SceneSystem(ContinuousSystem):
         plain = {k: v for k, v in self.__dict__.items() if _plain(v)}
         return _scene_system, (self.scene, self.method, self.event_samples), plain
 
+    def __copy__(self):
+        # copy.copy stays a shallow copy sharing the kernel (with_parameter, the census), not
+        # the rebuild that __reduce__ describes for another process
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
     def __init__(self, scene_or_name, overrides=None, *, kernel=None, method: str = "dopri5",
                  event_samples: int | None = None, y0=None):
         from nld.kernel.codegen import needs_onset_velocity
