@@ -932,6 +932,55 @@ def _bf_agrees(a, b, regime, route, agree) -> str:
     return "yes (branch unstable here)"
 
 
+def _stretches(cls):
+    """(i, j) of each run of equal stability words in ``cls`` (branch order)."""
+    i = 0
+    while i < len(cls):
+        j = i
+        while j + 1 < len(cls) and cls[j + 1] == cls[i]:
+            j += 1
+        yield i, j
+        i = j + 1
+
+
+def _multiplier_text(o, *, memory_value: bool = True) -> str:
+    """The evidence's multiplier clause of a branch orbit: max |mu| ± its uncertainty, the
+    memory's neutral 1 named (``memory_value``: with the largest of the others beside it) and
+    the contact onsets per period."""
+    mu = _critical_multipliers(o)
+    note = ""
+    if memory_neutral(o):
+        if not memory_value:
+            note = " (the memory's neutral 1 included)"
+        elif mu.size:
+            note = f" (without the memory's 1: {np.max(np.abs(mu)):.4g})"
+    return (f"max |mu| {o.max_abs_multiplier:.4g} ± {multiplier_uncertainty(o):.2g}{note}"
+            f", {o.onsets_per_period} onsets/period")
+
+
+def _interior_transition(bifs, a: float, b: float, before: str, after: str, mtxt: str):
+    """(kind, at, uncertainty, evidence) of the change between two branch points a < b: the
+    first of ``bifs`` located between them, else a regime change at the midpoint."""
+    inside = [x for x in bifs if a <= x.value <= b]
+    if inside:
+        x = inside[0]
+        return x.kind, x.value, x.tolerance, f"{x.detail}; {mtxt}"
+    return ("regime_change", 0.5 * (a + b), 0.5 * (b - a),
+            f"{before} -> {after} between branch points; {mtxt}")
+
+
+def _agrees_word(word: str, sub) -> str:
+    """The route row's agreement with the brute force over its stretch (``sub``: the agreement
+    rows there, or None)."""
+    if word == "unstable":
+        return "n/a (unstable: brute force does not show it)"
+    if sub is None or not len(sub):
+        return "not checked (no sweep point on this stretch)"
+    bad = sub[~sub["agrees"]]
+    return "yes" if not len(bad) else "no at " + ", ".join(
+        f"{v:.4g} ({w})" for v, w in zip(bad["value"], bad["why"]))
+
+
 def _branch_rows(br, route, pts, agree) -> list[dict]:
     vals = np.asarray(br.values, dtype=float)
     order = np.argsort(vals, kind="stable")
@@ -942,26 +991,11 @@ def _branch_rows(br, route, pts, agree) -> list[dict]:
     ends = {e["direction"]: e for e in route.get("ends", [])}
     pv = pts["value"].to_numpy(float)
     rows = []
-    i = 0
-    while i < len(vals):
-        j = i
-        while j + 1 < len(vals) and cls[j + 1] == cls[i]:
-            j += 1
-        o = orbs[j]
-        mu = _critical_multipliers(o)
-        mtxt = (f"max |mu| {o.max_abs_multiplier:.4g} ± {multiplier_uncertainty(o):.2g}"
-                + (f" (without the memory's 1: {np.max(np.abs(mu)):.4g})"
-                   if memory_neutral(o) and mu.size else "")
-                + f", {o.onsets_per_period} onsets/period")
+    for i, j in _stretches(cls):
+        mtxt = _multiplier_text(orbs[j])
         if j + 1 < len(vals):
-            inside = [b for b in bifs if vals[j] <= b.value <= vals[j + 1]]
-            if inside:
-                b = inside[0]
-                kind, at, unc, ev = b.kind, b.value, b.tolerance, f"{b.detail}; {mtxt}"
-            else:
-                kind, at, unc = "regime_change", 0.5 * (vals[j] + vals[j + 1]), \
-                    0.5 * (vals[j + 1] - vals[j])
-                ev = f"{cls[i]} -> {cls[j + 1]} between branch points; {mtxt}"
+            kind, at, unc, ev = _interior_transition(bifs, vals[j], vals[j + 1], cls[i],
+                                                     cls[j + 1], mtxt)
         else:
             e = ends.get(+1, {"reason": "range_end", "detail": "", "value": vals[j]})
             kind = e["reason"] if e["reason"] in ("fold", "grazing", "contact_change") else \
@@ -974,20 +1008,11 @@ def _branch_rows(br, route, pts, agree) -> list[dict]:
             sub = agree[(agree["value"] >= vals[i] - 1e-15) & (agree["value"] <= vals[j] + 1e-15)]
         else:
             sub = agree
-        if cls[i] == "unstable":
-            ag = "n/a (unstable: brute force does not show it)"
-        elif sub is None or not len(sub):
-            ag = "not checked (no sweep point on this stretch)"
-        else:
-            bad = sub[~sub["agrees"]]
-            ag = "yes" if not len(bad) else "no at " + ", ".join(
-                f"{v:.4g} ({w})" for v, w in zip(bad["value"], bad["why"]))
         rows.append({"source": "continuation", "regime": f"period {br.period} {cls[i]}",
                      "period": br.period, "from": vals[i], "to": vals[j], "transition": kind,
                      "at": at, "at_unc": unc, "evidence": ev,
                      "lambda_before": _lam(pts, ib), "lambda_after": _lam(pts, ib + 1),
-                     "agrees": ag})
-        i = j + 1
+                     "agrees": _agrees_word(cls[i], sub)})
     lo = ends.get(-1)
     if rows and lo is not None and lo["reason"] != "range_end":
         rows[0]["evidence"] += (f"; low end at {lo['value']:.4g}: {lo['reason']}"
@@ -1012,24 +1037,12 @@ def _doubled_rows(e, route, pts, agree) -> list[dict]:
     sub_all = (agree[agree["period"] == br.period] if agree is not None and len(agree)
                and "period" in agree.columns else None)
     rows = []
-    i = 0
-    while i < len(vals):
-        j = i
-        while j + 1 < len(vals) and cls[j + 1] == cls[i]:
-            j += 1
-        o = orbs[j]
-        mtxt = (f"max |mu| {o.max_abs_multiplier:.4g} ± {multiplier_uncertainty(o):.2g}"
-                + (" (the memory's neutral 1 included)" if memory_neutral(o) else "")
-                + f", {o.onsets_per_period} onsets/period")
+    for i, j in _stretches(cls):
+        mtxt = _multiplier_text(orbs[j], memory_value=False)
         if j + 1 < len(vals):
             a, b = sorted((vals[j], vals[j + 1]))
-            inside = [x for x in br.bifurcations if a <= x.value <= b]
-            if inside:
-                x = inside[0]
-                kind, at, unc, ev = x.kind, x.value, x.tolerance, f"{x.detail}; {mtxt}"
-            else:
-                kind, at, unc = "regime_change", 0.5 * (a + b), 0.5 * (b - a)
-                ev = f"{cls[i]} -> {cls[j + 1]} between branch points; {mtxt}"
+            kind, at, unc, ev = _interior_transition(br.bifurcations, a, b, cls[i], cls[j + 1],
+                                                     mtxt)
         else:
             kind = far["reason"] if far["reason"] in ("fold", "grazing", "contact_change",
                                                        "range_end") else "branch_end"
@@ -1039,24 +1052,14 @@ def _doubled_rows(e, route, pts, agree) -> list[dict]:
         ev = (f"born at the period doubling of the period-{born['period']} orbit at "
               f"{born['value']:.6g} ± {born['tolerance']:.2g} ({born['criticality']}); " + ev)
         lo, hi = float(min(vals[i], vals[j])), float(max(vals[i], vals[j]))
-        if cls[i] == "unstable":
-            ag = "n/a (unstable: brute force does not show it)"
-        else:
-            sub = None if sub_all is None else sub_all[(sub_all["value"] >= lo - 1e-15)
-                                                       & (sub_all["value"] <= hi + 1e-15)]
-            if sub is None or not len(sub):
-                ag = "not checked (no sweep point on this stretch)"
-            else:
-                bad = sub[~sub["agrees"]]
-                ag = "yes" if not len(bad) else "no at " + ", ".join(
-                    f"{v:.4g} ({w})" for v, w in zip(bad["value"], bad["why"]))
+        sub = None if sub_all is None else sub_all[(sub_all["value"] >= lo - 1e-15)
+                                                   & (sub_all["value"] <= hi + 1e-15)]
         ib = int(np.searchsorted(pv, at, side="right")) - 1
         rows.append({"source": "continuation", "regime": f"period {br.period} {cls[i]}",
                      "period": br.period, "from": lo, "to": hi, "transition": kind,
                      "at": at, "at_unc": unc, "evidence": ev,
                      "lambda_before": _lam(pts, ib), "lambda_after": _lam(pts, ib + 1),
-                     "agrees": ag})
-        i = j + 1
+                     "agrees": _agrees_word(cls[i], sub)})
     if rows and route.get("cascade"):
         rows[-1]["evidence"] += f"; cascade: {route['cascade']['delta']}"
     return rows
